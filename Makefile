@@ -1,0 +1,47 @@
+# Two commands set everything up on a fresh machine: `make demo` and `make test`.
+# Both create .venv and install what they need (torch pinned through constraints.txt).
+PYTHON ?= python3
+VENV := .venv
+PY := $(VENV)/bin/python
+PIP := $(PY) -m pip install --constraint constraints.txt
+EXTRAS ?= field,vlm,postgres,dev
+
+.PHONY: venv demo test lint typecheck pytest bench bench-store db-check clean
+
+comma := ,
+STAMP := $(VENV)/.stamp-$(subst $(comma),_,$(EXTRAS))
+
+$(STAMP): pyproject.toml constraints.txt
+	test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PIP) --upgrade pip setuptools wheel
+	$(PIP) -e ".[$(EXTRAS)]"
+	touch $@
+
+venv: $(STAMP)
+
+demo: $(STAMP)
+	$(PY) -m causalsplat demo
+
+test: lint typecheck pytest
+
+lint: $(STAMP)
+	$(PY) -m ruff check causalsplat graph_store queries tests migrations
+	$(PY) -m ruff format --check causalsplat graph_store queries tests migrations
+
+typecheck: $(STAMP)
+	$(PY) -m mypy
+
+pytest: $(STAMP)
+	$(PY) -m pytest -m "not slow" $(PYTEST_ARGS)
+
+db-check: $(STAMP)
+	bash .ci/db-check
+
+bench-store: $(STAMP)
+	$(PY) -m causalsplat bench --only store
+
+bench: $(STAMP)
+	$(PY) -m causalsplat bench
+
+clean:
+	rm -rf $(VENV) build *.egg-info .pytest_cache .mypy_cache .ruff_cache

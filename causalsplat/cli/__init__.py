@@ -1,0 +1,15 @@
+"""The ``causalsplat`` command line (DESIGN §10).
+
+A thin layer over the Python API: every command takes ``--db URL`` and ``--json``;
+any library error becomes one line on stderr and a non-zero exit status.
+Command groups live in private modules, each registering its commands on :data:`cli`.
+"""
+
+from __future__ import annotations
+
+from causalsplat.cli._app import cli, main
+
+# Each module registers its commands on `cli` when imported.
+from causalsplat.cli import _store_cmds  # noqa: F401, E402  isort: skip
+
+__all__ = ["cli", "main"]

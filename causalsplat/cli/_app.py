@@ -1,0 +1,86 @@
+"""The click group, shared options and the error boundary of the CLI."""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+from collections.abc import Callable
+from typing import Any, NoReturn, TypeVar
+
+import click
+
+from causalsplat.errors import CausalSplatError
+from graph_store.errors import GraphStoreError
+
+DEFAULT_DB = "sqlite:///causalsplat.db"
+F = TypeVar("F", bound=Callable[..., Any])
+
+
+def _user_errors() -> tuple[type[BaseException], ...]:
+    """Exception roots whose message is shown as one line (not a traceback)."""
+    roots: list[type[BaseException]] = [
+        CausalSplatError,
+        GraphStoreError,
+        FileNotFoundError,
+        IsADirectoryError,
+        PermissionError,
+    ]
+    try:  # the query language's root, when the package provides it
+        from queries.errors import QueryError
+
+        roots.append(QueryError)
+    except ImportError:  # pragma: no cover - queries always ships errors once it exists
+        pass
+    return tuple(roots)
+
+
+def fail(message: str) -> NoReturn:
+    """Print one error line on stderr and exit with status 1."""
+    click.echo(f"causalsplat: error: {message}", err=True)
+    sys.exit(1)
+
+
+class _Group(click.Group):
+    def invoke(self, ctx: click.Context) -> Any:
+        try:
+            return super().invoke(ctx)
+        except _user_errors() as exc:
+            message = str(exc) or type(exc).__name__
+            if isinstance(exc, OSError) and exc.filename is not None:
+                message = f"{exc.strerror}: {exc.filename}"
+            fail(f"{message.splitlines()[0] if message else type(exc).__name__}")
+
+
+@click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(package_name="causalsplat")
+def cli() -> None:
+    """CausalSplat: reasoning over 3D Gaussian Splatting scenes through a persisted scene graph.
+
+    Every command takes --db URL (default sqlite:///causalsplat.db, or the
+    CAUSALSPLAT_DB environment variable) and --json for one JSON document on stdout.
+    """
+
+
+def db_option(func: F) -> F:
+    return click.option(
+        "--db",
+        "db_url",
+        default=lambda: os.environ.get("CAUSALSPLAT_DB", DEFAULT_DB),
+        show_default="sqlite:///causalsplat.db or $CAUSALSPLAT_DB",
+        help="Database URL (sqlite:///PATH or postgresql+psycopg://...).",
+    )(func)
+
+
+def json_option(func: F) -> F:
+    return click.option(
+        "--json", "as_json", is_flag=True, help="Print one JSON document on stdout."
+    )(func)
+
+
+def echo_json(document: Any) -> None:
+    click.echo(json.dumps(document, indent=2, ensure_ascii=False, sort_keys=False))
+
+
+def main() -> None:
+    cli(prog_name="causalsplat")

@@ -1,0 +1,3 @@
+"""Store commands: ingest-objects, scenes, export, sparql, db upgrade."""
+
+from __future__ import annotations

@@ -1,0 +1,60 @@
+"""graph_store: the persisted scene-graph store of CausalSplat.
+
+Types (:class:`Entity`, :class:`Relation`, :class:`SceneGraph`...), the database
+repository (:func:`open_store`), the RDF vocabulary, export/import, and read-only SPARQL.
+This package never imports torch.
+"""
+
+from graph_store.errors import (
+    EntityNotFound,
+    GraphStoreError,
+    InvalidSceneError,
+    RDFFormatError,
+    SceneExistsError,
+    SceneNotFound,
+    SchemaVersionError,
+    SparqlError,
+    SparqlForbiddenError,
+    SparqlRowLimitError,
+    SparqlSyntaxError,
+    SparqlTimeoutError,
+    StoreConnectionError,
+)
+from graph_store.types import (
+    STORED_RELATION_TYPES,
+    Attribute,
+    AttributeSource,
+    Entity,
+    MaskRecord,
+    Relation,
+    RelationType,
+    SceneGraph,
+    SceneMeta,
+    View,
+)
+
+__all__ = [
+    "STORED_RELATION_TYPES",
+    "Attribute",
+    "AttributeSource",
+    "Entity",
+    "EntityNotFound",
+    "GraphStoreError",
+    "InvalidSceneError",
+    "MaskRecord",
+    "RDFFormatError",
+    "Relation",
+    "RelationType",
+    "SceneExistsError",
+    "SceneGraph",
+    "SceneMeta",
+    "SceneNotFound",
+    "SchemaVersionError",
+    "SparqlError",
+    "SparqlForbiddenError",
+    "SparqlRowLimitError",
+    "SparqlSyntaxError",
+    "SparqlTimeoutError",
+    "StoreConnectionError",
+    "View",
+]
