@@ -20,6 +20,7 @@ from graph_store.errors import (
     SparqlTimeoutError,
     StoreConnectionError,
 )
+from graph_store.repository import GraphStore, SceneSummary, open_store
 from graph_store.types import (
     STORED_RELATION_TYPES,
     Attribute,
@@ -39,6 +40,7 @@ __all__ = [
     "AttributeSource",
     "Entity",
     "EntityNotFound",
+    "GraphStore",
     "GraphStoreError",
     "InvalidSceneError",
     "MaskRecord",
@@ -49,6 +51,7 @@ __all__ = [
     "SceneGraph",
     "SceneMeta",
     "SceneNotFound",
+    "SceneSummary",
     "SchemaVersionError",
     "SparqlError",
     "SparqlForbiddenError",
@@ -57,4 +60,5 @@ __all__ = [
     "SparqlTimeoutError",
     "StoreConnectionError",
     "View",
+    "open_store",
 ]

@@ -11,7 +11,7 @@ The schema is owned by Alembic (``migrations/``); ``Base.metadata`` is what
 from __future__ import annotations
 
 from datetime import datetime
-from typing import Annotated, Any
+from typing import Annotated, Any, ClassVar, cast
 
 from sqlalchemy import (
     JSON,
@@ -26,6 +26,7 @@ from sqlalchemy import (
     LargeBinary,
     MetaData,
     String,
+    Table,
     Text,
     UniqueConstraint,
 )
@@ -63,7 +64,10 @@ ATTRIBUTE_SOURCE_ENUM = Enum(
 
 class Base(DeclarativeBase):
     metadata = MetaData(naming_convention=NAMING_CONVENTION)
-    type_annotation_map = {dict[str, Any]: JSON, datetime: DateTime(timezone=True)}
+    type_annotation_map: ClassVar[dict[Any, Any]] = {
+        dict[str, Any]: JSON,
+        datetime: DateTime(timezone=True),
+    }
 
 
 class SceneRow(Base):
@@ -82,9 +86,15 @@ class SceneRow(Base):
 
 
 def _scene_fk() -> Any:
+    """Scene id column of a table owned directly by a scene."""
     return mapped_column(
         String(MAX_NAME_LENGTH), ForeignKey("scenes.id", ondelete="CASCADE"), primary_key=True
     )
+
+
+def _scene_key() -> Any:
+    """Scene id column of a table owned through an entity or view (cascades through them)."""
+    return mapped_column(String(MAX_NAME_LENGTH), primary_key=True)
 
 
 class EntityRow(Base):
@@ -125,7 +135,7 @@ class EntityAttributeRow(Base):
         Index("ix_entity_attributes_scene_key_value", "scene_id", "key", "value"),
     )
 
-    scene_id: Mapped[str] = _scene_fk()
+    scene_id: Mapped[str] = _scene_key()
     entity_id: Mapped[LocalId] = mapped_column(primary_key=True)
     key: Mapped[Name] = mapped_column(primary_key=True)
     value: Mapped[str] = mapped_column(Text, primary_key=True)
@@ -140,7 +150,7 @@ class RelationRow(Base):
         Index("ix_relations_scene_type_dst", "scene_id", "type", "dst"),
     )
 
-    scene_id: Mapped[str] = _scene_fk()
+    scene_id: Mapped[str] = _scene_key()
     src: Mapped[LocalId] = mapped_column(primary_key=True)
     type: Mapped[str] = mapped_column(RELATION_TYPE_ENUM, primary_key=True)
     dst: Mapped[LocalId] = mapped_column(primary_key=True)
@@ -167,7 +177,7 @@ class MaskRow(Base):
         Index("ix_masks_scene_entity", "scene_id", "entity_id"),
     )
 
-    scene_id: Mapped[str] = _scene_fk()
+    scene_id: Mapped[str] = _scene_key()
     view_id: Mapped[LocalId] = mapped_column(primary_key=True)
     idx: Mapped[LocalId] = mapped_column(primary_key=True)
     entity_id: Mapped[int | None] = mapped_column(BigInteger)
@@ -204,11 +214,15 @@ class QueryLogRow(Base):
     reasoner: Mapped[Name]
 
 
-scenes = SceneRow.__table__
-entities = EntityRow.__table__
-entity_attributes = EntityAttributeRow.__table__
-relations = RelationRow.__table__
-views = ViewRow.__table__
-masks = MaskRow.__table__
-gaussian_labels = GaussianLabelsRow.__table__
-query_log = QueryLogRow.__table__
+def _table(model: type[Base]) -> Table:
+    return cast(Table, model.__table__)
+
+
+scenes = _table(SceneRow)
+entities = _table(EntityRow)
+entity_attributes = _table(EntityAttributeRow)
+relations = _table(RelationRow)
+views = _table(ViewRow)
+masks = _table(MaskRow)
+gaussian_labels = _table(GaussianLabelsRow)
+query_log = _table(QueryLogRow)

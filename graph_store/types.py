@@ -18,6 +18,7 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from datetime import datetime
 from enum import StrEnum
+from itertools import pairwise
 from typing import Any
 
 from graph_store.errors import EntityNotFound, InvalidSceneError
@@ -244,9 +245,9 @@ class Entity:
         set_(self, "centroid", check_vec3(self.centroid, f"centroid of {where}"))
         lo = check_vec3(self.bbox_min, f"bbox_min of {where}")
         hi = check_vec3(self.bbox_max, f"bbox_max of {where}")
-        for axis, (a, b) in zip("xyz", zip(lo, hi, strict=True), strict=True):
-            if a > b:
-                raise InvalidSceneError(f"bbox of {where} has min {axis}={a} > max {axis}={b}")
+        for axis, low, high in zip("xyz", lo, hi, strict=True):
+            if low > high:
+                raise InvalidSceneError(f"bbox of {where} has min {axis}={low} > max {axis}={high}")
         set_(self, "bbox_min", lo)
         set_(self, "bbox_max", hi)
         if self.external_id is not None:
@@ -263,7 +264,7 @@ class Entity:
         for a in attrs:
             if not isinstance(a, Attribute):
                 raise InvalidSceneError(f"attributes of {where} must be Attribute, got {a!r}")
-        for a, b in zip(attrs, attrs[1:], strict=False):
+        for a, b in pairwise(attrs):
             if (a.key, a.value) == (b.key, b.value):
                 raise InvalidSceneError(
                     f"{where} has attribute {a.key}={a.value!r} twice ({a.source}, {b.source})"
@@ -287,11 +288,7 @@ class Entity:
 
 
 def _normalise_evidence(value: object, where: str) -> tuple[tuple[str, float], ...]:
-    items: Iterable[Any]
-    if isinstance(value, Mapping):
-        items = value.items()
-    else:
-        items = value  # type: ignore[assignment]
+    items: Iterable[Any] = value.items() if isinstance(value, Mapping) else value  # type: ignore[assignment]
     pairs: dict[str, float] = {}
     for item in items:
         try:

@@ -10,6 +10,6 @@ from __future__ import annotations
 from causalsplat.cli._app import cli, main
 
 # Each module registers its commands on `cli` when imported.
-from causalsplat.cli import _store_cmds  # noqa: F401, E402  isort: skip
+from causalsplat.cli import _store_cmds  # noqa: F401  isort: skip
 
 __all__ = ["cli", "main"]

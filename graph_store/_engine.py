@@ -1,0 +1,108 @@
+"""Engine creation: URL checks, SQLite pragmas and transaction modes, PostgreSQL options.
+
+SQLite is configured for a store that several processes share:
+
+- ``journal_mode=WAL``: readers never block the writer and see the last committed state;
+- ``foreign_keys=ON``: the cascades and references of the schema are enforced;
+- ``busy_timeout``: a writer waits for another writer's lock instead of failing at once;
+- ``synchronous=NORMAL``: with WAL, a killed process never corrupts the database or
+  exposes a half-written transaction (a power cut may lose the last commits only).
+
+The pysqlite driver's own transaction handling is switched off and SQLAlchemy's ``begin``
+emits ``BEGIN`` itself: ``BEGIN IMMEDIATE`` for write transactions (the write lock is taken
+up front, so two writers queue on the busy timeout instead of dead-locking on a lock
+upgrade), plain ``BEGIN`` for reads.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import sqlalchemy as sa
+from sqlalchemy import event
+from sqlalchemy.engine import URL, Connection, Engine, make_url
+from sqlalchemy.pool import StaticPool
+
+from graph_store.errors import StoreConnectionError
+
+#: Seconds a SQLite writer waits for another writer's lock before giving up.
+SQLITE_BUSY_TIMEOUT_S = 30.0
+#: Seconds to wait for a PostgreSQL server to accept a connection.
+POSTGRES_CONNECT_TIMEOUT_S = 10
+
+WRITE = {"graph_store_write": True}
+
+
+def parse_url(url: str | URL) -> URL:
+    """Parse a database URL, raising :class:`StoreConnectionError` when it is malformed."""
+    try:
+        parsed = make_url(url)
+    except (sa.exc.ArgumentError, ValueError) as exc:
+        raise StoreConnectionError(f"malformed database URL {str(url)!r}: {exc}") from exc
+    backend = parsed.get_backend_name()
+    if backend not in ("sqlite", "postgresql"):
+        raise StoreConnectionError(
+            f"unsupported database {backend!r} in {parsed.render_as_string()!r}: "
+            "use sqlite:///PATH or postgresql+psycopg://USER@HOST/DB"
+        )
+    return parsed
+
+
+def create_store_engine(url: str | URL, *, echo: bool = False) -> Engine:
+    """Create an engine for a store URL with the settings described in the module doc."""
+    parsed = parse_url(url)
+    try:
+        if parsed.get_backend_name() == "sqlite":
+            return _sqlite_engine(parsed, echo=echo)
+        return _postgres_engine(parsed, echo=echo)
+    except ImportError as exc:
+        raise StoreConnectionError(
+            f"no driver for {parsed.drivername!r}: {exc}. "
+            "For PostgreSQL install it with: pip install 'causalsplat[postgres]'"
+        ) from exc
+
+
+def _sqlite_engine(url: URL, *, echo: bool) -> Engine:
+    in_memory = url.database in (None, "", ":memory:")
+    kwargs: dict[str, Any] = {"connect_args": {"timeout": SQLITE_BUSY_TIMEOUT_S}}
+    if in_memory:
+        kwargs.update(poolclass=StaticPool)
+        kwargs["connect_args"]["check_same_thread"] = False
+    engine = sa.create_engine(url, echo=echo, **kwargs)
+
+    @event.listens_for(engine, "connect")
+    def _on_connect(dbapi_conn: Any, _record: Any) -> None:
+        dbapi_conn.isolation_level = None  # SQLAlchemy's begin event emits BEGIN
+        cursor = dbapi_conn.cursor()
+        try:
+            if not in_memory:
+                cursor.execute("PRAGMA journal_mode=WAL")
+                cursor.execute("PRAGMA synchronous=NORMAL")
+            cursor.execute("PRAGMA foreign_keys=ON")
+            cursor.execute(f"PRAGMA busy_timeout={int(SQLITE_BUSY_TIMEOUT_S * 1000)}")
+        finally:
+            cursor.close()
+
+    @event.listens_for(engine, "begin")
+    def _on_begin(conn: Connection) -> None:
+        write = conn.get_execution_options().get("graph_store_write", False)
+        conn.exec_driver_sql("BEGIN IMMEDIATE" if write else "BEGIN")
+
+    return engine
+
+
+def _postgres_engine(url: URL, *, echo: bool) -> Engine:
+    if url.drivername == "postgresql":
+        url = url.set(drivername="postgresql+psycopg")
+    connect_args: dict[str, Any] = {}
+    if "connect_timeout" not in url.query:
+        connect_args["connect_timeout"] = POSTGRES_CONNECT_TIMEOUT_S
+    return sa.create_engine(url, echo=echo, pool_pre_ping=True, connect_args=connect_args)
+
+
+def describe_url(url: str | URL) -> str:
+    """The URL as text with any password hidden, for messages."""
+    try:
+        return make_url(url).render_as_string(hide_password=True)
+    except (sa.exc.ArgumentError, ValueError):
+        return "<malformed URL>"

@@ -1,0 +1,456 @@
+"""The repository: save, load, list and delete scene graphs in a database.
+
+>>> store = open_store("sqlite:///scenes.db")
+>>> store.save_scene(graph)                      # one transaction; fails if the id exists
+>>> store.save_scene(graph, if_exists="replace")  # or replaces it, still one transaction
+>>> store.load_scene("scene0000_00") == graph
+True
+
+Writes go through SQLAlchemy Core ``insert()`` executemany (not the ORM unit of work),
+inside a single transaction: a crash at any point leaves the earlier contents of the
+database intact and no partial scene visible.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator, Mapping, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass
+from datetime import UTC, datetime
+from typing import Any, Literal
+
+import numpy as np
+import numpy.typing as npt
+import sqlalchemy as sa
+from sqlalchemy.engine import Connection, Engine
+
+from graph_store import models as m
+from graph_store._engine import WRITE, create_store_engine, describe_url
+from graph_store._schema import ensure_schema
+from graph_store.errors import (
+    EntityNotFound,
+    GraphStoreError,
+    SceneExistsError,
+    SceneNotFound,
+    StoreConnectionError,
+)
+from graph_store.labels import EncodedLabels, check_labels, decode_labels, encode_labels
+from graph_store.types import (
+    Attribute,
+    AttributeSource,
+    Entity,
+    MaskRecord,
+    Relation,
+    SceneGraph,
+    SceneMeta,
+    View,
+)
+
+IfExists = Literal["fail", "replace"]
+
+
+@dataclass(frozen=True, slots=True)
+class SceneSummary:
+    """One row of :meth:`GraphStore.list_scenes`."""
+
+    scene_id: str
+    name: str | None
+    source: str
+    units: str
+    up_axis: str
+    entity_count: int
+    relation_count: int
+    created_at: datetime
+    config_hash: str | None
+
+
+def open_store(url: str, *, create: bool = True, echo: bool = False) -> GraphStore:
+    """Open (and, for an empty database with ``create=True``, initialise) a store.
+
+    Raises :class:`StoreConnectionError` when the URL is malformed or the database cannot
+    be reached, and :class:`SchemaVersionError` when its schema needs a migration.
+    """
+    engine = create_store_engine(url, echo=echo)
+    try:
+        ensure_schema(engine, create=create)
+    except sa.exc.OperationalError as exc:
+        engine.dispose()
+        reason = str(exc.orig).strip().splitlines()[0] if exc.orig else str(exc)
+        raise StoreConnectionError(
+            f"cannot open the store at {describe_url(url)}: {reason}"
+        ) from exc
+    except BaseException:
+        engine.dispose()
+        raise
+    return GraphStore(engine)
+
+
+class GraphStore:
+    """Scene graphs persisted in one SQLite or PostgreSQL database."""
+
+    def __init__(self, engine: Engine) -> None:
+        self.engine = engine
+
+    @property
+    def url(self) -> str:
+        return describe_url(self.engine.url)
+
+    @property
+    def dialect(self) -> str:
+        """``"sqlite"`` or ``"postgresql"``."""
+        return self.engine.dialect.name
+
+    def close(self) -> None:
+        self.engine.dispose()
+
+    def __enter__(self) -> GraphStore:
+        return self
+
+    def __exit__(self, *_exc: object) -> None:
+        self.close()
+
+    def __repr__(self) -> str:
+        return f"GraphStore({self.url!r})"
+
+    # -- transactions ------------------------------------------------------------------
+
+    @contextmanager
+    def _read(self) -> Iterator[Connection]:
+        with self._wrap_errors(), self.engine.connect() as conn, conn.begin():
+            yield conn
+
+    @contextmanager
+    def _write(self) -> Iterator[Connection]:
+        with (
+            self._wrap_errors(),
+            self.engine.connect().execution_options(**WRITE) as conn,
+            conn.begin(),
+        ):
+            yield conn
+
+    @contextmanager
+    def _wrap_errors(self) -> Iterator[None]:
+        try:
+            yield
+        except sa.exc.OperationalError as exc:
+            reason = str(exc.orig).strip().splitlines()[0] if exc.orig else str(exc)
+            raise StoreConnectionError(f"database error on {self.url}: {reason}") from exc
+
+    # -- scenes --------------------------------------------------------------------------
+
+    def save_scene(
+        self,
+        graph: SceneGraph,
+        *,
+        if_exists: IfExists = "fail",
+        gaussian_labels: npt.ArrayLike | None = None,
+    ) -> None:
+        """Write a whole scene graph (and optionally its per-Gaussian labels) atomically.
+
+        Args:
+            graph: the scene graph; it was validated when constructed.
+            if_exists: ``"fail"`` raises :class:`SceneExistsError` when a scene with the
+                same id is stored; ``"replace"`` deletes it and writes the new one in the
+                same transaction (readers see either the old or the new scene).
+            gaussian_labels: ``(N,)`` integer array, the entity id of each Gaussian
+                (``-1``: none); every id must be an entity of ``graph``.
+        """
+        if if_exists not in ("fail", "replace"):
+            raise ValueError(f"if_exists must be 'fail' or 'replace', got {if_exists!r}")
+        if not isinstance(graph, SceneGraph):
+            raise TypeError(f"save_scene expects a SceneGraph, got {type(graph).__name__}")
+        encoded: EncodedLabels | None = None
+        if gaussian_labels is not None:
+            ids = [e.id for e in graph.entities]
+            encoded = encode_labels(check_labels(gaussian_labels, ids, graph.scene_id))
+        rows = _scene_rows(graph)
+        sid = graph.scene_id
+        try:
+            with self._write() as conn:
+                exists = conn.execute(sa.select(m.scenes.c.id).where(m.scenes.c.id == sid)).first()
+                if exists is not None:
+                    if if_exists == "fail":
+                        raise SceneExistsError(
+                            f"scene {sid!r} is already stored; pass if_exists='replace'"
+                            " (CLI: --if-exists replace) to overwrite it"
+                        )
+                    conn.execute(sa.delete(m.scenes).where(m.scenes.c.id == sid))
+                conn.execute(sa.insert(m.scenes), [rows.scene])
+                for table, batch in rows.children():
+                    if batch:
+                        conn.execute(sa.insert(table), batch)
+                if encoded is not None:
+                    conn.execute(
+                        sa.insert(m.gaussian_labels),
+                        [_labels_row(sid, encoded)],
+                    )
+        except sa.exc.IntegrityError as exc:
+            # Another writer stored the same id between our check and our insert.
+            raise SceneExistsError(f"scene {sid!r} was stored concurrently: {exc.orig}") from exc
+
+    def load_scene(self, scene_id: str) -> SceneGraph:
+        """Read a whole scene graph back; raises :class:`SceneNotFound`."""
+        with self._read() as conn:
+            row = self._scene_row(conn, scene_id)
+            ents = conn.execute(
+                sa.select(m.entities).where(m.entities.c.scene_id == scene_id)
+            ).all()
+            attrs = _attributes_by_entity(conn, scene_id)
+            rels = conn.execute(
+                sa.select(
+                    m.relations.c.src, m.relations.c.dst, m.relations.c.type, m.relations.c.evidence
+                ).where(m.relations.c.scene_id == scene_id)
+            ).all()
+            view_rows = conn.execute(sa.select(m.views).where(m.views.c.scene_id == scene_id)).all()
+            mask_rows = conn.execute(sa.select(m.masks).where(m.masks.c.scene_id == scene_id)).all()
+        return SceneGraph(
+            meta=_meta_from_row(row),
+            entities=tuple(_entity_from_row(r, attrs.get(r.id, ())) for r in ents),
+            relations=tuple(Relation(r.src, r.dst, r.type, r.evidence) for r in rels),
+            views=tuple(View(r.id, r.name, r.width, r.height) for r in view_rows),
+            masks=tuple(
+                MaskRecord(r.view_id, r.idx, r.entity_id, r.label, r.score) for r in mask_rows
+            ),
+        )
+
+    def has_scene(self, scene_id: str) -> bool:
+        with self._read() as conn:
+            found = conn.execute(sa.select(m.scenes.c.id).where(m.scenes.c.id == scene_id)).first()
+        return found is not None
+
+    def list_scenes(self) -> list[SceneSummary]:
+        """All stored scenes, ordered by id."""
+        with self._read() as conn:
+            rows = conn.execute(sa.select(m.scenes).order_by(m.scenes.c.id)).all()
+        return [
+            SceneSummary(
+                scene_id=r.id,
+                name=r.name,
+                source=r.source,
+                units=r.units,
+                up_axis=r.up_axis,
+                entity_count=r.entity_count,
+                relation_count=r.relation_count,
+                created_at=_aware(r.created_at),
+                config_hash=r.config_hash,
+            )
+            for r in rows
+        ]
+
+    def delete_scene(self, scene_id: str) -> None:
+        """Delete a scene and everything it owns; raises :class:`SceneNotFound`."""
+        with self._write() as conn:
+            deleted = conn.execute(sa.delete(m.scenes).where(m.scenes.c.id == scene_id))
+            if deleted.rowcount == 0:
+                raise SceneNotFound(f"no scene {scene_id!r} in the store at {self.url}")
+
+    def scene_meta(self, scene_id: str) -> SceneMeta:
+        with self._read() as conn:
+            return _meta_from_row(self._scene_row(conn, scene_id))
+
+    def _scene_row(self, conn: Connection, scene_id: str) -> sa.Row[Any]:
+        row = conn.execute(sa.select(m.scenes).where(m.scenes.c.id == scene_id)).first()
+        if row is None:
+            raise SceneNotFound(f"no scene {scene_id!r} in the store at {self.url}")
+        return row
+
+    # -- entities ------------------------------------------------------------------------
+
+    def find_entity(self, scene_id: str, entity_id: int) -> Entity | None:
+        """The entity, or ``None`` when the scene has no such entity.
+
+        Raises :class:`SceneNotFound` when the scene itself is missing.
+        """
+        return self._find_entity(scene_id, m.entities.c.id == entity_id)
+
+    def get_entity(self, scene_id: str, entity_id: int) -> Entity:
+        """The entity; raises :class:`EntityNotFound` (or :class:`SceneNotFound`)."""
+        entity = self.find_entity(scene_id, entity_id)
+        if entity is None:
+            raise EntityNotFound(f"scene {scene_id!r} has no entity {entity_id!r}")
+        return entity
+
+    def has_entity(self, scene_id: str, entity_id: int) -> bool:
+        return self.find_entity(scene_id, entity_id) is not None
+
+    def find_entity_by_external_id(self, scene_id: str, external_id: str) -> Entity | None:
+        """The entity whose input id was ``external_id``, or ``None``."""
+        return self._find_entity(scene_id, m.entities.c.external_id == str(external_id))
+
+    def _find_entity(self, scene_id: str, where: sa.ColumnElement[bool]) -> Entity | None:
+        with self._read() as conn:
+            self._scene_row(conn, scene_id)
+            row = conn.execute(
+                sa.select(m.entities).where(m.entities.c.scene_id == scene_id, where)
+            ).first()
+            if row is None:
+                return None
+            attrs = _attributes_by_entity(conn, scene_id, row.id)
+        return _entity_from_row(row, attrs.get(row.id, ()))
+
+    # -- per-Gaussian labels -------------------------------------------------------------
+
+    def load_gaussian_labels(self, scene_id: str) -> npt.NDArray[np.int32] | None:
+        """The ``(N,)`` int32 entity id per Gaussian, or ``None`` when the scene has none."""
+        with self._read() as conn:
+            self._scene_row(conn, scene_id)
+            row = conn.execute(
+                sa.select(m.gaussian_labels).where(m.gaussian_labels.c.scene_id == scene_id)
+            ).first()
+        if row is None:
+            return None
+        cols = row._mapping
+        encoded = EncodedLabels(
+            cols["count"], cols["dtype"], cols["codec"], cols["sha256"], bytes(cols["data"])
+        )
+        return decode_labels(encoded, scene_id)
+
+    def save_gaussian_labels(self, scene_id: str, labels: npt.ArrayLike) -> None:
+        """Set (or replace) the per-Gaussian labels of a stored scene, atomically."""
+        with self._write() as conn:
+            self._scene_row(conn, scene_id)
+            ids = (
+                conn.execute(sa.select(m.entities.c.id).where(m.entities.c.scene_id == scene_id))
+                .scalars()
+                .all()
+            )
+            encoded = encode_labels(check_labels(labels, ids, scene_id))
+            conn.execute(
+                sa.delete(m.gaussian_labels).where(m.gaussian_labels.c.scene_id == scene_id)
+            )
+            conn.execute(sa.insert(m.gaussian_labels), [_labels_row(scene_id, encoded)])
+
+
+# -- row conversion ----------------------------------------------------------------------
+
+
+@dataclass(frozen=True, slots=True)
+class _SceneRows:
+    scene: dict[str, Any]
+    entities: list[dict[str, Any]]
+    attributes: list[dict[str, Any]]
+    relations: list[dict[str, Any]]
+    views: list[dict[str, Any]]
+    masks: list[dict[str, Any]]
+
+    def children(self) -> Sequence[tuple[sa.Table, list[dict[str, Any]]]]:
+        """Child tables in foreign-key order."""
+        return (
+            (m.entities, self.entities),
+            (m.entity_attributes, self.attributes),
+            (m.relations, self.relations),
+            (m.views, self.views),
+            (m.masks, self.masks),
+        )
+
+
+def _scene_rows(graph: SceneGraph) -> _SceneRows:
+    meta, sid = graph.meta, graph.scene_id
+    scene = {
+        "id": sid,
+        "name": meta.name,
+        "units": meta.units,
+        "up_axis": meta.up_axis,
+        "source": meta.source,
+        "config_hash": meta.config_hash,
+        "provenance": dict(meta.provenance),
+        "created_at": datetime.now(UTC),
+        "entity_count": len(graph.entities),
+        "relation_count": len(graph.relations),
+    }
+    entities: list[dict[str, Any]] = []
+    attributes: list[dict[str, Any]] = []
+    for e in graph.entities:
+        (cx, cy, cz), (x0, y0, z0), (x1, y1, z1) = e.centroid, e.bbox_min, e.bbox_max
+        entities.append(
+            {
+                "scene_id": sid, "id": e.id, "external_id": e.external_id,
+                "category": e.category, "caption": e.caption,
+                "cx": cx, "cy": cy, "cz": cz,
+                "min_x": x0, "min_y": y0, "min_z": z0, "max_x": x1, "max_y": y1, "max_z": z1,
+                "point_count": e.point_count, "confidence": e.confidence,
+            }
+        )  # fmt: skip
+        attributes.extend(
+            {"scene_id": sid, "entity_id": e.id, "key": a.key, "value": a.value,
+             "source": a.source.value}
+            for a in e.attributes
+        )  # fmt: skip
+    relations = [
+        {"scene_id": sid, "src": r.src, "dst": r.dst, "type": r.type.value,
+         "evidence": dict(r.evidence)}
+        for r in graph.relations
+    ]  # fmt: skip
+    views = [
+        {"scene_id": sid, "id": v.id, "name": v.name, "width": v.width, "height": v.height}
+        for v in graph.views
+    ]
+    masks = [
+        {"scene_id": sid, "view_id": k.view, "idx": k.index, "entity_id": k.entity,
+         "label": k.label, "score": k.score}
+        for k in graph.masks
+    ]  # fmt: skip
+    return _SceneRows(scene, entities, attributes, relations, views, masks)
+
+
+def _labels_row(scene_id: str, encoded: EncodedLabels) -> dict[str, Any]:
+    return {
+        "scene_id": scene_id,
+        "count": encoded.count,
+        "dtype": encoded.dtype,
+        "codec": encoded.codec,
+        "sha256": encoded.sha256,
+        "data": encoded.data,
+    }
+
+
+def _attributes_by_entity(
+    conn: Connection, scene_id: str, entity_id: int | None = None
+) -> dict[int, list[Attribute]]:
+    t = m.entity_attributes
+    query = sa.select(t.c.entity_id, t.c.key, t.c.value, t.c.source).where(t.c.scene_id == scene_id)
+    if entity_id is not None:
+        query = query.where(t.c.entity_id == entity_id)
+    out: dict[int, list[Attribute]] = {}
+    for row in conn.execute(query):
+        out.setdefault(row.entity_id, []).append(
+            Attribute(row.key, row.value, AttributeSource(row.source))
+        )
+    return out
+
+
+def _entity_from_row(row: sa.Row[Any], attributes: Sequence[Attribute]) -> Entity:
+    return Entity(
+        id=row.id,
+        category=row.category,
+        centroid=(row.cx, row.cy, row.cz),
+        bbox_min=(row.min_x, row.min_y, row.min_z),
+        bbox_max=(row.max_x, row.max_y, row.max_z),
+        external_id=row.external_id,
+        caption=row.caption,
+        point_count=row.point_count,
+        confidence=row.confidence,
+        attributes=tuple(attributes),
+    )
+
+
+def _meta_from_row(row: sa.Row[Any]) -> SceneMeta:
+    provenance: Mapping[str, str] = row.provenance or {}
+    return SceneMeta(
+        scene_id=row.id,
+        name=row.name,
+        units=row.units,
+        up_axis=row.up_axis,
+        source=row.source,
+        config_hash=row.config_hash,
+        provenance=tuple(provenance.items()),
+        created_at=_aware(row.created_at),
+    )
+
+
+def _aware(value: datetime) -> datetime:
+    """SQLite returns naive datetimes for what was written as UTC."""
+    return value if value.tzinfo is not None else value.replace(tzinfo=UTC)
+
+
+__all__ = ["GraphStore", "GraphStoreError", "IfExists", "SceneSummary", "open_store"]
