@@ -238,10 +238,10 @@ class Entity:
     attributes: tuple[Attribute, ...] = ()
 
     def __post_init__(self) -> None:
-        where = f"entity {self.id!r}"
-        _check_int(self.id, "entity id")
-        _check_name(self.category, f"category of {where}")
         set_ = object.__setattr__
+        set_(self, "id", _check_int(self.id, "entity id"))
+        where = f"entity {self.id!r}"
+        _check_name(self.category, f"category of {where}")
         set_(self, "centroid", check_vec3(self.centroid, f"centroid of {where}"))
         lo = check_vec3(self.bbox_min, f"bbox_min of {where}")
         hi = check_vec3(self.bbox_max, f"bbox_max of {where}")
@@ -317,8 +317,8 @@ class Relation:
     evidence: tuple[tuple[str, float], ...] = field(default=(), compare=True)
 
     def __post_init__(self) -> None:
-        _check_int(self.src, "relation src")
-        _check_int(self.dst, "relation dst")
+        object.__setattr__(self, "src", _check_int(self.src, "relation src"))
+        object.__setattr__(self, "dst", _check_int(self.dst, "relation dst"))
         rel = RelationType.parse(self.type)
         object.__setattr__(self, "type", rel)
         where = f"relation {self.src} {rel.value} {self.dst}"
@@ -344,10 +344,14 @@ class View:
     height: int
 
     def __post_init__(self) -> None:
-        _check_int(self.id, "view id")
+        object.__setattr__(self, "id", _check_int(self.id, "view id"))
         _check_name(self.name, f"name of view {self.id}")
-        _check_int(self.width, f"width of view {self.id}", minimum=1)
-        _check_int(self.height, f"height of view {self.id}", minimum=1)
+        object.__setattr__(
+            self, "width", _check_int(self.width, f"width of view {self.id}", minimum=1)
+        )
+        object.__setattr__(
+            self, "height", _check_int(self.height, f"height of view {self.id}", minimum=1)
+        )
 
 
 @dataclass(frozen=True, slots=True, order=True)
@@ -361,11 +365,11 @@ class MaskRecord:
     score: float | None = None
 
     def __post_init__(self) -> None:
-        _check_int(self.view, "mask view")
-        _check_int(self.index, "mask index")
+        object.__setattr__(self, "view", _check_int(self.view, "mask view"))
+        object.__setattr__(self, "index", _check_int(self.index, "mask index"))
         where = f"mask {self.index} of view {self.view}"
         if self.entity is not None:
-            _check_int(self.entity, f"entity of {where}")
+            object.__setattr__(self, "entity", _check_int(self.entity, f"entity of {where}"))
         if self.label is not None:
             check_text(self.label, f"label of {where}")
         if self.score is not None:

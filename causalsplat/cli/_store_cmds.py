@@ -1,3 +1,243 @@
-"""Store commands: ingest-objects, scenes, export, sparql, db upgrade."""
+"""Store commands: ingest-objects, scenes, export, sparql, db."""
 
 from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Any
+
+import click
+
+from causalsplat.cli._app import cli, db_option, echo_json, fail, json_option
+
+
+def _open(db_url: str) -> Any:
+    from causalsplat.api import open_store
+
+    return open_store(db_url)
+
+
+@cli.command("ingest-objects")
+@click.argument("file", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--scene", "scene_id", help="Scene id (default: the file's scene_id).")
+@click.option(
+    "--if-exists",
+    type=click.Choice(["fail", "replace"]),
+    default="fail",
+    show_default=True,
+    help="What to do when a scene with this id is already stored.",
+)
+@db_option
+@json_option
+def ingest_objects(
+    file: Path, scene_id: str | None, if_exists: str, db_url: str, as_json: bool
+) -> None:
+    """Store a scene graph built from already segmented objects (objects JSON, DESIGN §9)."""
+    with _open(db_url) as store:
+        scene = store.ingest_objects(file, scene_id=scene_id, if_exists=if_exists)
+        graph = scene.graph
+    counts: dict[str, int] = {}
+    for r in graph.relations:
+        counts[r.type.value] = counts.get(r.type.value, 0) + 1
+    if as_json:
+        echo_json(
+            {
+                "scene_id": graph.scene_id,
+                "entities": len(graph.entities),
+                "relations": len(graph.relations),
+                "relations_by_type": counts,
+            }
+        )
+        return
+    click.echo(
+        f"stored scene {graph.scene_id!r}: {len(graph.entities)} entities, "
+        f"{len(graph.relations)} relations"
+    )
+    for e in graph.entities:
+        cx, cy, cz = e.centroid
+        click.echo(
+            f"  {e.id:>5}  {e.category:<24} ext={e.external_id}  ({cx:.3f}, {cy:.3f}, {cz:.3f})"
+        )
+
+
+@cli.command("scenes")
+@db_option
+@json_option
+def scenes(db_url: str, as_json: bool) -> None:
+    """List the stored scenes."""
+    with _open(db_url) as store:
+        rows = store.scenes()
+    if as_json:
+        echo_json(
+            [
+                {
+                    "scene_id": s.scene_id,
+                    "name": s.name,
+                    "source": s.source,
+                    "units": s.units,
+                    "up_axis": s.up_axis,
+                    "entities": s.entity_count,
+                    "relations": s.relation_count,
+                    "created_at": s.created_at.isoformat(),
+                    "config_hash": s.config_hash,
+                }
+                for s in rows
+            ]
+        )
+        return
+    if not rows:
+        click.echo("no scenes stored")
+        return
+    click.echo(f"{'scene':<32} {'entities':>9} {'relations':>10}  source   created")
+    for s in rows:
+        created = s.created_at.strftime("%Y-%m-%d %H:%M")
+        click.echo(
+            f"{s.scene_id:<32} {s.entity_count:>9} {s.relation_count:>10}  {s.source:<8} {created}"
+        )
+
+
+@cli.command("export")
+@click.option("--scene", "scene_ids", multiple=True, help="Scene id (repeatable; default: all).")
+@click.option(
+    "--format",
+    "fmt",
+    type=click.Choice(["turtle", "ntriples", "jsonld"]),
+    default="turtle",
+    show_default=True,
+)
+@click.option(
+    "-o", "--output", type=click.Path(dir_okay=False, path_type=Path), default=None,
+    help="Output file (default: stdout).",
+)  # fmt: skip
+@click.option("--no-evidence", is_flag=True, help="Leave out relation evidence nodes.")
+@db_option
+@json_option
+def export(
+    scene_ids: tuple[str, ...],
+    fmt: str,
+    output: Path | None,
+    no_evidence: bool,
+    db_url: str,
+    as_json: bool,
+) -> None:
+    """Export stored scenes as RDF (Turtle, N-Triples or JSON-LD)."""
+    with _open(db_url) as store:
+        ids = list(scene_ids) or None
+        if ids:
+            for sid in ids:
+                store.scene(sid)  # raises SceneNotFound before anything is written
+        text = store.export_rdf(None, scene_ids=ids, format=fmt, evidence=not no_evidence)
+    assert text is not None
+    if output is None:
+        sys.stdout.write(text)
+        return
+    from causalsplat.api import _write_atomic
+
+    _write_atomic(output, text)
+    if as_json:
+        echo_json({"path": str(output), "format": fmt, "bytes": len(text.encode("utf-8"))})
+    else:
+        click.echo(f"wrote {output} ({fmt})")
+
+
+def _parse_binding(text: str) -> tuple[str, Any]:
+    name, sep, value = text.partition("=")
+    if not sep or not name:
+        fail(f"--bind expects NAME=VALUE, got {text!r}")
+    for convert in (int, float):
+        try:
+            return name.lstrip("?$"), convert(value)
+        except ValueError:
+            pass
+    return name.lstrip("?$"), value
+
+
+@cli.command("sparql")
+@click.argument("query", required=False)
+@click.option("--file", "query_file", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--scene", "scene_ids", multiple=True, help="Scene id (repeatable; default: all).")
+@click.option(
+    "--bind", "binds", multiple=True, metavar="NAME=VALUE",
+    help="Bind a variable to a literal (numbers are typed as numbers).",
+)  # fmt: skip
+@click.option("--limit", type=click.IntRange(min=1), default=10_000, show_default=True)
+@click.option("--timeout", type=click.FloatRange(min=0.001), default=30.0, show_default=True)
+@click.option("--backend", type=click.Choice(["oxigraph", "rdflib"]), default="oxigraph")
+@db_option
+@json_option
+def sparql(
+    query: str | None,
+    query_file: Path | None,
+    scene_ids: tuple[str, ...],
+    binds: tuple[str, ...],
+    limit: int,
+    timeout: float,
+    backend: str,
+    db_url: str,
+    as_json: bool,
+) -> None:
+    """Run a read-only SPARQL query over the RDF view of stored scenes.
+
+    QUERY is the query text ('-' reads stdin); or use --file. The prefixes csg:, bot:,
+    geo:, rdf:, rdfs:, xsd: and owl: are predeclared. Updates, LOAD, SERVICE and FROM
+    are refused.
+    """
+    if (query is None) == (query_file is None):
+        fail("give the query text or --file PATH (exactly one)")
+    text = query_file.read_text(encoding="utf-8") if query_file else query
+    if text == "-":
+        text = sys.stdin.read()
+    assert text is not None
+    bindings = dict(_parse_binding(b) for b in binds)
+    with _open(db_url) as store:
+        ids = list(scene_ids) or None
+        for sid in ids or ():
+            store.scene(sid)
+        result = store.sparql(
+            text, scene_ids=ids, bindings=bindings, limit=limit, timeout_s=timeout, backend=backend
+        )
+    if as_json:
+        echo_json(result.to_json())
+        return
+    if result.kind == "ask":
+        click.echo("true" if result.boolean else "false")
+        return
+    click.echo("\t".join(result.columns))
+    for row in result.rows:
+        click.echo("\t".join("" if v is None else str(v) for v in row))
+    if result.truncated:
+        click.echo(f"(truncated at {limit} rows)", err=True)
+
+
+@cli.group("db")
+def db() -> None:
+    """Manage the store schema (Alembic migrations)."""
+
+
+@db.command("upgrade")
+@click.option("--revision", default="head", show_default=True, help="Target revision.")
+@db_option
+@json_option
+def db_upgrade(revision: str, db_url: str, as_json: bool) -> None:
+    """Migrate the store schema up to a revision (creates the schema in an empty database)."""
+    from causalsplat.migrate import upgrade
+
+    before, after = upgrade(db_url, revision)
+    if as_json:
+        echo_json({"from": before, "to": after})
+    else:
+        click.echo(f"schema revision: {before or '(empty)'} -> {after}")
+
+
+@db.command("current")
+@db_option
+@json_option
+def db_current(db_url: str, as_json: bool) -> None:
+    """Print the store's schema revision."""
+    from causalsplat.migrate import current
+
+    revision = current(db_url)
+    if as_json:
+        echo_json({"revision": revision})
+    else:
+        click.echo(revision or "(empty)")

@@ -1,0 +1,239 @@
+"""The public Python API (DESIGN §10): open a store, add scenes, query them.
+
+.. code-block:: python
+
+    from causalsplat import open_store
+
+    store = open_store("sqlite:///scenes.db")        # or postgresql+psycopg://...
+    scene = store.ingest_objects("objects.json")     # a stored scene handle
+    scene = store.scene("scene0000_00")
+    rows = scene.sparql("SELECT ?a ?b WHERE { ?a csg:above ?b }")
+
+A :class:`Scene` is a handle on one stored scene. It reads the graph from the store the
+first time it is needed and keeps it (and its RDF view) for later calls; call
+:meth:`Scene.reload` after the scene was replaced in the store. Nothing here imports torch.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterable, Mapping, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Literal
+
+from graph_store import (
+    Entity,
+    GraphStore,
+    SceneGraph,
+    SceneNotFound,
+    SceneSummary,
+)
+from graph_store import open_store as _open_graph_store
+from graph_store.repository import IfExists
+
+if TYPE_CHECKING:
+    import numpy as np
+    import numpy.typing as npt
+
+    from graph_store.rdf import RdfView, SparqlResult
+
+DEFAULT_URL = "sqlite:///causalsplat.db"
+RdfFormat = Literal["turtle", "ntriples", "jsonld"]
+SparqlBackend = Literal["oxigraph", "rdflib"]
+
+
+def open_store(url: str | None = None, *, create: bool = True) -> Store:
+    """Open the store at ``url`` (default ``$CAUSALSPLAT_DB`` or ``sqlite:///causalsplat.db``).
+
+    A new SQLite file (or an empty PostgreSQL database) is initialised when ``create`` is
+    true. Raises ``StoreConnectionError`` or ``SchemaVersionError`` (see ``graph_store``).
+    """
+    return Store(
+        _open_graph_store(url or os.environ.get("CAUSALSPLAT_DB", DEFAULT_URL), create=create)
+    )
+
+
+class Store:
+    """A database of scene graphs, with the operations users run on it."""
+
+    def __init__(self, graph_store: GraphStore) -> None:
+        self.graph_store = graph_store
+
+    def __repr__(self) -> str:
+        return f"Store({self.graph_store.url!r})"
+
+    def __enter__(self) -> Store:
+        return self
+
+    def __exit__(self, *_exc: object) -> None:
+        self.close()
+
+    def close(self) -> None:
+        self.graph_store.close()
+
+    # -- scenes ------------------------------------------------------------------------
+
+    def scenes(self) -> list[SceneSummary]:
+        """Summaries of all stored scenes, ordered by id."""
+        return self.graph_store.list_scenes()
+
+    def scene(self, scene_id: str) -> Scene:
+        """A handle on a stored scene; raises ``SceneNotFound``."""
+        if not self.graph_store.has_scene(scene_id):
+            raise SceneNotFound(f"no scene {scene_id!r} in the store at {self.graph_store.url}")
+        return Scene(self, scene_id)
+
+    def save_scene(
+        self,
+        graph: SceneGraph,
+        *,
+        if_exists: IfExists = "fail",
+        gaussian_labels: npt.ArrayLike | None = None,
+    ) -> Scene:
+        """Store a scene graph atomically and return its handle."""
+        self.graph_store.save_scene(graph, if_exists=if_exists, gaussian_labels=gaussian_labels)
+        return Scene(self, graph.scene_id, graph=graph)
+
+    def delete_scene(self, scene_id: str) -> None:
+        self.graph_store.delete_scene(scene_id)
+
+    def ingest_objects(
+        self,
+        path: str | Path,
+        *,
+        scene_id: str | None = None,
+        if_exists: IfExists = "fail",
+    ) -> Scene:
+        """Store the scene graph of an objects file (DESIGN §9) and return its handle."""
+        from causalsplat.objects import objects_to_scene_graph, read_objects
+
+        graph = objects_to_scene_graph(read_objects(path), scene_id=scene_id)
+        return self.save_scene(graph, if_exists=if_exists)
+
+    # -- RDF ---------------------------------------------------------------------------
+
+    def export_rdf(
+        self,
+        path: str | Path | None,
+        *,
+        scene_ids: Sequence[str] | None = None,
+        format: RdfFormat = "turtle",
+        evidence: bool = True,
+    ) -> str | None:
+        """Export scenes (all when ``scene_ids`` is None) as RDF.
+
+        Writes ``path`` atomically (a temporary file renamed into place) and returns
+        ``None``; with ``path=None`` returns the document as a string.
+        """
+        from graph_store.rdf import serialize_scenes
+
+        graphs = self._graphs(scene_ids)
+        text = serialize_scenes(graphs, format, evidence=evidence)
+        if path is None:
+            return text
+        _write_atomic(Path(path), text)
+        return None
+
+    def sparql(
+        self,
+        query: str,
+        *,
+        scene_ids: Sequence[str] | None = None,
+        bindings: Mapping[str, Any] | None = None,
+        limit: int = 10_000,
+        timeout_s: float = 30.0,
+        backend: SparqlBackend = "oxigraph",
+    ) -> SparqlResult:
+        """Read-only SPARQL over the RDF view of some scenes (all when ``scene_ids`` is None)."""
+        from graph_store.rdf import RdfView
+
+        view = RdfView.from_graphs(self._graphs(scene_ids), backend=backend)
+        return view.query(query, bindings=bindings, limit=limit, timeout_s=timeout_s)
+
+    def _graphs(self, scene_ids: Sequence[str] | None) -> list[SceneGraph]:
+        ids: Iterable[str]
+        ids = scene_ids if scene_ids is not None else [s.scene_id for s in self.scenes()]
+        return [self.graph_store.load_scene(sid) for sid in ids]
+
+
+class Scene:
+    """A handle on one stored scene."""
+
+    def __init__(self, store: Store, scene_id: str, *, graph: SceneGraph | None = None) -> None:
+        self.store = store
+        self.id = scene_id
+        self._graph = graph
+        self._rdf: dict[str, RdfView] = {}
+
+    def __repr__(self) -> str:
+        return f"Scene({self.id!r})"
+
+    @property
+    def graph(self) -> SceneGraph:
+        """The scene graph, read from the store on first use."""
+        if self._graph is None:
+            self._graph = self.store.graph_store.load_scene(self.id)
+        return self._graph
+
+    def reload(self) -> Scene:
+        """Forget cached state so the next access reads the store again."""
+        self._graph = None
+        self._rdf.clear()
+        return self
+
+    @property
+    def entities(self) -> tuple[Entity, ...]:
+        return self.graph.entities
+
+    def get_entity(self, entity_id: int) -> Entity:
+        return self.graph.get_entity(entity_id)
+
+    def find_entity(self, entity_id: int) -> Entity | None:
+        return self.graph.find_entity(entity_id)
+
+    def has_entity(self, entity_id: int) -> bool:
+        return self.graph.has_entity(entity_id)
+
+    def gaussian_labels(self) -> np.ndarray | None:
+        """``(N,)`` int32 entity id per Gaussian (``-1``: none), or ``None``."""
+        return self.store.graph_store.load_gaussian_labels(self.id)
+
+    def sparql(
+        self,
+        query: str,
+        *,
+        bindings: Mapping[str, Any] | None = None,
+        limit: int = 10_000,
+        timeout_s: float = 30.0,
+        backend: SparqlBackend = "oxigraph",
+    ) -> SparqlResult:
+        """Read-only SPARQL over this scene's RDF view (built once per handle).
+
+        Standard prefixes (``csg:``, ``bot:``, ``geo:``, ``rdf:``, ``rdfs:``, ``xsd:``,
+        ``owl:``) are predeclared; user values go in through ``bindings``.
+        """
+        view = self._rdf.get(backend)
+        if view is None:
+            from graph_store.rdf import RdfView
+
+            view = self._rdf[backend] = RdfView.from_graphs([self.graph], backend=backend)
+        return view.query(query, bindings=bindings, limit=limit, timeout_s=timeout_s)
+
+    def export_rdf(
+        self, path: str | Path | None, *, format: RdfFormat = "turtle", evidence: bool = True
+    ) -> str | None:
+        """Export this scene as RDF (see :meth:`Store.export_rdf`)."""
+        return self.store.export_rdf(path, scene_ids=[self.id], format=format, evidence=evidence)
+
+
+def _write_atomic(path: Path, text: str) -> None:
+    """Write a file so that a crash leaves either the old file or the new one."""
+    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
+    try:
+        with tmp.open("w", encoding="utf-8", newline="\n") as handle:
+            handle.write(text)
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
