@@ -134,9 +134,8 @@ def test_corrupt_gaussian_labels_are_detected(db_url: str) -> None:
 
 
 def test_schema_revision_is_checked(db_url: str) -> None:
-    with open_store(db_url) as store:
-        with store.engine.begin() as conn:
-            conn.execute(sa.text("UPDATE alembic_version SET version_num = '9999'"))
+    with open_store(db_url) as store, store.engine.begin() as conn:
+        conn.execute(sa.text("UPDATE alembic_version SET version_num = '9999'"))
     with pytest.raises(SchemaVersionError, match=r"revision '9999'.*causalsplat db upgrade"):
         open_store(db_url)
 

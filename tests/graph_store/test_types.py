@@ -53,7 +53,8 @@ def test_non_finite_coordinates_are_refused(bad: float) -> None:
 
 
 def test_entity_normalises_numpy_and_lists_to_float_tuples() -> None:
-    e = Entity(np.int64(2), "cup", np.array([1, 2, 3], dtype=np.float32), [0, 0, 0], (4, 4, 4))  # type: ignore[arg-type]
+    centroid = np.array([1, 2, 3], dtype=np.float32)
+    e = Entity(np.int64(2), "cup", centroid, [0, 0, 0], (4, 4, 4))  # type: ignore[arg-type]
     assert e.id == 2 and type(e.id) is int
     assert e.centroid == (1.0, 2.0, 3.0) and all(type(v) is float for v in e.centroid)
     assert e.size == (4.0, 4.0, 4.0) and e.volume == 64.0
@@ -73,7 +74,8 @@ def test_entity_normalises_numpy_and_lists_to_float_tuples() -> None:
 )
 def test_entity_validation_messages(kwargs: dict[str, object], message: str) -> None:
     args: dict[str, object] = {
-        "id": 0, "category": "cup", "centroid": (0, 0, 0), "bbox_min": (0, 0, 0), "bbox_max": (1, 1, 1),
+        "id": 0, "category": "cup", "centroid": (0, 0, 0),
+        "bbox_min": (0, 0, 0), "bbox_max": (1, 1, 1),
     }  # fmt: skip
     args.update(kwargs)
     with pytest.raises(InvalidSceneError, match=message):

@@ -1,0 +1,110 @@
+"""The store commands through the real ``causalsplat`` command line."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import rdflib
+
+from tests.causalsplat.test_objects import KITCHEN, NAN_CENTER
+from tests.conftest import REPO_ROOT
+
+COMMANDS = [["ingest-objects"], ["scenes"], ["export"], ["sparql"], ["db"], ["db", "upgrade"],
+            ["db", "current"]]  # fmt: skip
+
+
+def run(*args: str, db: str | None = None, check: bool = True) -> subprocess.CompletedProcess[str]:
+    argv = [sys.executable, "-m", "causalsplat", *args]
+    if db is not None:
+        argv += ["--db", db]
+    proc = subprocess.run(
+        argv, capture_output=True, text=True, cwd=REPO_ROOT, env={**os.environ}, timeout=120
+    )
+    if check and proc.returncode != 0:
+        raise AssertionError(f"{argv} failed ({proc.returncode}): {proc.stderr}")
+    return proc
+
+
+def assert_one_line_error(proc: subprocess.CompletedProcess[str], pattern: str) -> None:
+    assert proc.returncode != 0
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1, proc.stderr
+    assert lines[0].startswith("causalsplat: error: ")
+    assert pattern in lines[0], lines[0]
+
+
+@pytest.mark.parametrize("command", COMMANDS, ids=" ".join)
+def test_every_command_has_help(command: list[str]) -> None:
+    out = run(*command, "--help").stdout
+    assert "Usage:" in out and len(out.splitlines()) > 3
+
+
+def test_ingest_list_export_and_query(tmp_path: Path) -> None:
+    db = f"sqlite:///{tmp_path / 'store.db'}"
+    objects = tmp_path / "objects.json"
+    objects.write_text(json.dumps(KITCHEN))
+    ingested = json.loads(run("ingest-objects", str(objects), "--json", db=db).stdout)
+    assert ingested == {
+        "scene_id": "kitchen",
+        "entities": 2,
+        "relations": 0,
+        "relations_by_type": {},
+    }
+    [row] = json.loads(run("scenes", "--json", db=db).stdout)
+    assert (row["scene_id"], row["entities"]) == ("kitchen", 2)
+
+    out = tmp_path / "kitchen.ttl"
+    run("export", "--scene", "kitchen", "--format", "turtle", "-o", str(out), db=db)
+    graph = rdflib.Graph().parse(out, format="turtle")
+    assert len(graph) > 10
+
+    query = "SELECT ?c WHERE { ?e csg:category ?c } ORDER BY ?c"
+    result = json.loads(run("sparql", query, "--scene", "kitchen", "--json", db=db).stdout)
+    assert [r[0] for r in result["rows"]] == ["sink", "towel"]
+    bound = run(
+        "sparql", "SELECT ?e WHERE { ?e csg:category ?c }", "--bind", "c=towel", "--json", db=db
+    ).stdout
+    assert len(json.loads(bound)["rows"]) == 1
+
+
+def test_errors_are_one_line_with_non_zero_exit_and_write_nothing(tmp_path: Path) -> None:
+    db = f"sqlite:///{tmp_path / 'store.db'}"
+    objects = tmp_path / "objects.json"
+    objects.write_text(json.dumps(KITCHEN))
+    run("ingest-objects", str(objects), db=db)
+
+    assert_one_line_error(run("ingest-objects", str(objects), db=db, check=False), "already stored")
+    bad = tmp_path / "bad.json"
+    bad.write_text(NAN_CENTER)
+    assert_one_line_error(run("ingest-objects", str(bad), db=db, check=False), "NaN")
+    assert_one_line_error(
+        run("ingest-objects", str(tmp_path / "missing.json"), db=db, check=False), "missing.json"
+    )
+    for update in (
+        "INSERT DATA { <urn:a> <urn:b> <urn:c> }",
+        "LOAD <http://127.0.0.1:9/x.ttl>",
+        "SELECT * WHERE { SERVICE <http://127.0.0.1:9/sparql> { ?s ?p ?o } }",
+    ):
+        assert_one_line_error(run("sparql", update, db=db, check=False), "")
+    assert_one_line_error(run("export", "--scene", "nope", db=db, check=False), "no scene 'nope'")
+    assert_one_line_error(
+        run("scenes", db="postgresql+psycopg://nobody@127.0.0.1:1/none", check=False),
+        "cannot open the store",
+    )
+    scenes = json.loads(run("scenes", "--json", db=db).stdout)
+    assert [s["scene_id"] for s in scenes] == ["kitchen"]
+
+
+def test_db_upgrade_and_current(tmp_path: Path) -> None:
+    db = f"sqlite:///{tmp_path / 'fresh.db'}"
+    assert json.loads(run("db", "upgrade", "--json", db=db).stdout) == {"from": None, "to": "0001"}
+    assert run("db", "current", db=db).stdout.strip() == "0001"
+    assert json.loads(run("db", "upgrade", "--json", db=db).stdout) == {
+        "from": "0001",
+        "to": "0001",
+    }

@@ -1,0 +1,135 @@
+"""The objects input format: parsing, validation messages, and the real ScanNet table."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from causalsplat import InputFormatError, open_store
+from causalsplat.objects import objects_to_scene_graph, parse_objects, read_objects
+from tests.conftest import shared_data_path
+
+
+def write(tmp_path: Path, document: Any, name: str = "objects.json") -> Path:
+    path = tmp_path / name
+    path.write_text(document if isinstance(document, str) else json.dumps(document))
+    return path
+
+
+KITCHEN = {
+    "scene_id": "kitchen",
+    "objects": [
+        {"id": 4, "label": "sink", "center": [1, 2, 0.9], "size": [0.6, 0.4, 0.2],
+         "attributes": {"color": "white", "affordance": ["wash hands", "rinse"]}},
+        {"id": 7, "label": "towel", "center": [1.5, 2, 1.0], "size": [0.2, 0.05, 0.4],
+         "points": [[1.5, 2.0, 0.9], [1.5, 2.0, 1.2], [1.5, 2.0, 1.2]]},
+    ],
+}  # fmt: skip
+
+
+def test_objects_become_entities_with_input_ids(tmp_path: Path) -> None:
+    graph = objects_to_scene_graph(read_objects(write(tmp_path, KITCHEN)))
+    sink, towel = graph.entities
+    assert (sink.id, sink.external_id, sink.category) == (4, "4", "sink")
+    assert sink.bbox_min == pytest.approx((0.7, 1.8, 0.8)) and sink.bbox_max == pytest.approx(
+        (1.3, 2.2, 1.0)
+    )
+    assert sink.centroid == (1.0, 2.0, 0.9) and sink.point_count == 0
+    assert sink.attribute_values("affordance") == ("rinse", "wash hands")
+    assert towel.centroid == pytest.approx((1.5, 2.0, 1.1)) and towel.point_count == 3
+    assert graph.meta.units == "m" and graph.meta.up_axis == "z" and graph.relations == ()
+    assert dict(graph.meta.provenance)["objects_sha256"]
+
+
+def test_string_ids_get_positional_local_ids() -> None:
+    doc = {"objects": [one(id="b", label="x")["objects"][0], one(id=3, label="y")["objects"][0]]}
+    graph = objects_to_scene_graph(parse_objects(doc), scene_id="s")
+    assert [(e.id, e.external_id) for e in graph.entities] == [(0, "b"), (1, "3")]
+
+
+def one(**changes: Any) -> dict[str, Any]:
+    """A document with one valid object, changed by ``changes`` (``None`` drops a key)."""
+    obj: dict[str, Any] = {"id": 1, "label": "a", "center": [0, 0, 0], "size": [1, 1, 1]}
+    obj.update(changes)
+    return {"objects": [{k: v for k, v in obj.items() if v is not None}]}
+
+
+NAN_CENTER = '{"objects": [{"id": 1, "label": "a", "center": [NaN, 0, 0], "size": [1, 1, 1]}]}'
+BAD = [
+    ("{not json", "not valid JSON"),
+    (NAN_CENTER, "NaN"),
+    (NAN_CENTER.replace("NaN", "Infinity"), "Infinity"),
+    ([], "top level must be an object"),
+    ({"objects": {}}, "objects: must be a list"),
+    (one(label=None), r"objects\[0\]: missing required key 'label'"),
+    (one(center=[0, 0]), r"objects\[0\].center: must be a list of three"),
+    (one(center=[0, "x", 0]), r"objects\[0\].center\[1\]: must be a number"),
+    (one(size=[1, -1, 1]), r"y extent must be >= 0"),
+    ({"objects": one()["objects"] * 2}, r"objects\[1\].id: duplicate id 1"),
+    (one(id=True), "must be an integer or a non-empty string"),
+    (one(attributes={"color": 3}), r"attributes.color: must be a string"),
+    (one(colour="red"), "unknown keys"),
+    (one(points=[[0, 0]]), r"points\[0\]: must be a list of three"),
+]
+
+
+@pytest.mark.parametrize(("document", "message"), BAD)
+def test_malformed_objects_files_raise_input_format_error(
+    tmp_path: Path, document: Any, message: str
+) -> None:
+    path = write(tmp_path, document)
+    with pytest.raises(InputFormatError, match=message) as info:
+        objects_to_scene_graph(read_objects(path), scene_id="s")
+    assert str(path) in str(info.value)
+
+
+def test_missing_scene_id_is_reported(tmp_path: Path) -> None:
+    doc = {"objects": []}
+    with pytest.raises(InputFormatError, match="no scene id"):
+        objects_to_scene_graph(read_objects(write(tmp_path, doc)))
+
+
+def test_bad_file_writes_nothing(tmp_path: Path) -> None:
+    with open_store(f"sqlite:///{tmp_path / 's.db'}") as store:
+        store.ingest_objects(write(tmp_path, KITCHEN))
+        bad = {"scene_id": "other", "objects": [*KITCHEN["objects"], {"id": 9, "label": "x"}]}
+        with pytest.raises(InputFormatError):
+            store.ingest_objects(write(tmp_path, bad, "bad.json"))
+        assert [s.scene_id for s in store.scenes()] == ["kitchen"]
+
+
+def scannet_objects_document() -> dict[str, Any]:
+    """The real object table of scene0000_00 in the objects format (AABB centre and size)."""
+    path = shared_data_path("scannet_scene0000_00", "language_gt", "objects_info_scene0000_00.json")
+    table = json.loads(path.read_text())
+    return {
+        "scene_id": "scene0000_00",
+        "units": "m",
+        "up": "z",
+        "objects": [
+            {"id": o["id"], "label": o["label"], "center": o["center_position"], "size": o["size"]}
+            for o in table["objects"]
+        ],
+    }
+
+
+@pytest.mark.shared_data
+def test_ingest_real_scannet_object_table(tmp_path: Path) -> None:
+    document = scannet_objects_document()
+    path = write(tmp_path, document)
+    with open_store(f"sqlite:///{tmp_path / 's.db'}") as store:
+        scene = store.ingest_objects(path)
+        graph = store.scene("scene0000_00").graph
+    assert scene.id == "scene0000_00"
+    assert len(graph.entities) == 67
+    assert [e.external_id for e in graph.entities] == [str(i) for i in range(67)]
+    by_id = {e.id: e for e in graph.entities}
+    labels = {o["id"]: o["label"] for o in document["objects"]}
+    assert all(by_id[i].category == labels[i] for i in range(67))
+    assert by_id[53].category == "toaster" and by_id[2].category == "table"
+    window = by_id[0]  # the table's extension is [0.609, 3.405, 1.570, 2.354, 3.637, 2.143]
+    assert window.bbox_min == pytest.approx((0.6091, 3.4048, 1.5704), abs=1e-4)
+    assert window.bbox_max == pytest.approx((2.3535, 3.6367, 2.1427), abs=1e-4)
