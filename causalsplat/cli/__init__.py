@@ -11,5 +11,7 @@ from causalsplat.cli._app import cli, main
 
 # Each module registers its commands on `cli` when imported.
 from causalsplat.cli import _store_cmds  # noqa: F401  isort: skip
+from causalsplat.cli import _bench_cmds  # noqa: F401  isort: skip
+from causalsplat.cli import _demo_cmd  # noqa: F401  isort: skip
 
 __all__ = ["cli", "main"]
