@@ -147,7 +147,7 @@ class RelationRow(Base):
     __table_args__ = (
         _entity_fk("src"),
         _entity_fk("dst"),
-        Index("ix_relations_scene_type_dst", "scene_id", "type", "dst"),
+        Index("ix_relations_scene_dst_type", "scene_id", "dst", "type"),
     )
 
     scene_id: Mapped[str] = _scene_key()

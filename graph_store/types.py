@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 from datetime import datetime
 from enum import StrEnum
 from itertools import pairwise
-from typing import Any
+from typing import Any, TypeVar
 
 from graph_store.errors import EntityNotFound, InvalidSceneError
 
@@ -524,6 +524,70 @@ class SceneGraph:
         """All relations of one type."""
         wanted = RelationType.parse(rel)
         return tuple(r for r in self.relations if r.type is wanted)
+
+
+def _trusted(cls: type[_T], **fields: Any) -> _T:
+    """Build a frozen dataclass without validation, from values the store validated on write.
+
+    Only :mod:`graph_store.repository` uses this, for rows it reads back: the database
+    enforces types, NOT NULL, enums and references, and every value was checked when written.
+    """
+    obj = object.__new__(cls)
+    for name, value in fields.items():
+        object.__setattr__(obj, name, value)
+    return obj
+
+
+def trusted_entity(
+    id: int,
+    category: str,
+    centroid: Vec3,
+    bbox_min: Vec3,
+    bbox_max: Vec3,
+    external_id: str | None,
+    caption: str | None,
+    point_count: int,
+    confidence: float | None,
+    attributes: tuple[Attribute, ...],
+) -> Entity:
+    return _trusted(
+        Entity, id=id, category=category, centroid=centroid, bbox_min=bbox_min,
+        bbox_max=bbox_max, external_id=external_id, caption=caption, point_count=point_count,
+        confidence=confidence, attributes=tuple(sorted(attributes)),
+    )  # fmt: skip
+
+
+def trusted_relation(src: int, dst: int, type: str, evidence: Mapping[str, float]) -> Relation:
+    return _trusted(
+        Relation,
+        src=src,
+        dst=dst,
+        type=RelationType(type),
+        evidence=tuple(sorted(evidence.items())),
+    )
+
+
+def trusted_scene_graph(
+    meta: SceneMeta,
+    entities: Iterable[Entity],
+    relations: Iterable[Relation],
+    views: Iterable[View],
+    masks: Iterable[MaskRecord],
+) -> SceneGraph:
+    """A scene graph from trusted members, put in canonical order."""
+    ents = tuple(sorted(entities, key=lambda e: e.id))
+    return _trusted(
+        SceneGraph,
+        meta=meta,
+        entities=ents,
+        relations=tuple(sorted(relations, key=lambda r: (r.src, r.type.value, r.dst))),
+        views=tuple(sorted(views)),
+        masks=tuple(sorted(masks, key=lambda m: (m.view, m.index))),
+        _by_id={e.id: e for e in ents},
+    )
+
+
+_T = TypeVar("_T")
 
 
 def _entity_key(e: Entity) -> int:

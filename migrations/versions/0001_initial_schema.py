@@ -214,13 +214,13 @@ def upgrade() -> None:
     )
     with op.batch_alter_table("relations", schema=None) as batch_op:
         batch_op.create_index(
-            "ix_relations_scene_type_dst", ["scene_id", "type", "dst"], unique=False
+            "ix_relations_scene_dst_type", ["scene_id", "dst", "type"], unique=False
         )
 
 
 def downgrade() -> None:
     with op.batch_alter_table("relations", schema=None) as batch_op:
-        batch_op.drop_index("ix_relations_scene_type_dst")
+        batch_op.drop_index("ix_relations_scene_dst_type")
 
     op.drop_table("relations")
     with op.batch_alter_table("masks", schema=None) as batch_op:
