@@ -13,5 +13,6 @@ from causalsplat.cli._app import cli, main
 from causalsplat.cli import _store_cmds  # noqa: F401  isort: skip
 from causalsplat.cli import _bench_cmds  # noqa: F401  isort: skip
 from causalsplat.cli import _demo_cmd  # noqa: F401  isort: skip
+from causalsplat.cli import _scene_cmds  # noqa: F401  isort: skip
 
 __all__ = ["cli", "main"]

@@ -1,0 +1,58 @@
+"""The rasterizer's knobs in one frozen dataclass (defaults as in the INRIA 3DGS rasterizer)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from causalsplat.render.errors import RenderError
+
+
+@dataclass(frozen=True, slots=True)
+class RasterConfig:
+    """Options of the EWA splatting rasterizer (the reference and the fast path share them).
+
+    Attributes:
+        low_pass: px², added to the diagonal of every projected 2D covariance (the "0.3 px"
+            screen-space low-pass / dilation of 3DGS; opacity is not compensated).
+        near: scene units; Gaussians whose mean has camera depth ``z < near`` are culled.
+        far: scene units; Gaussians with ``z > far`` are culled.
+        alpha_max: per-Gaussian alpha is clamped to at most this value (0.99).
+        alpha_min: a Gaussian whose alpha at a pixel is below this (1/255) is skipped there.
+        transmittance_min: front-to-back compositing of a pixel stops *before* the Gaussian
+            that would bring the transmittance below this value (1e-4), as in 3DGS.
+        max_contributors: if set, a pixel keeps at most this many contributing Gaussians
+            (the nearest ones) and stops there; ``None`` keeps all until ``transmittance_min``.
+        jacobian_margin: the projection Jacobian is evaluated with ``x/z`` and ``y/z``
+            clamped to the field of view widened by this fraction of the half-angle tangent
+            on each side (0.3, as 3DGS), which keeps off-screen Gaussians from exploding.
+        tile_size: px, side of the square tiles of the fast path (performance only).
+        chunk: Gaussians per vectorised step inside a tile (performance only).
+    """
+
+    low_pass: float = 0.3
+    near: float = 0.01
+    far: float = 1e10
+    alpha_max: float = 0.99
+    alpha_min: float = 1.0 / 255.0
+    transmittance_min: float = 1e-4
+    max_contributors: int | None = None
+    jacobian_margin: float = 0.3
+    tile_size: int = 16
+    chunk: int = 256
+
+    def __post_init__(self) -> None:
+        checks = (
+            ("low_pass", self.low_pass >= 0),
+            ("near", self.near > 0),
+            ("far", self.far > self.near),
+            ("alpha_max", 0 < self.alpha_max < 1),
+            ("alpha_min", 0 < self.alpha_min < self.alpha_max),
+            ("transmittance_min", 0 <= self.transmittance_min < 1),
+            ("max_contributors", self.max_contributors is None or self.max_contributors >= 1),
+            ("jacobian_margin", self.jacobian_margin >= 0),
+            ("tile_size", self.tile_size >= 1),
+            ("chunk", self.chunk >= 1),
+        )
+        for name, ok in checks:
+            if not ok:
+                raise RenderError(f"RasterConfig.{name}={getattr(self, name)!r} is out of range")

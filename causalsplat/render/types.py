@@ -1,0 +1,72 @@
+"""The rasterizer's hand-off type: :class:`Contributors` (numpy / scipy only)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+
+@dataclass(frozen=True, slots=True, eq=False, weakref_slot=True)
+class Contributors:
+    """Per-view sparse blending weights: pixel x Gaussian, in CSR form.
+
+    Row ``p = row * width + col`` lists the Gaussians that contribute to pixel ``p``, nearest
+    first, with weight ``w = alpha * T`` (alpha of the Gaussian at the pixel centre times the
+    transmittance in front of it). Rendering any per-Gaussian quantity ``f`` (N, C) is then
+    ``W @ f``; with a black background that is the alpha-composited image.
+
+    Attributes:
+        width, height: image size in pixels.
+        n_gaussians: N, the number of Gaussians of the scene (columns of W).
+        indptr: (H*W + 1,) int64 CSR row pointers.
+        indices: (nnz,) int32 Gaussian index of each entry, front to back within a row.
+        weights: (nnz,) float32 blending weights, in [0, 1], summing to <= 1 per row.
+        depths: (N,) float32 camera-frame z of each Gaussian centre (scene units), 0 for
+            Gaussians culled from this view.
+        key: hex content hash of (scene geometry, camera, config) that built it.
+    """
+
+    width: int
+    height: int
+    n_gaussians: int
+    indptr: np.ndarray
+    indices: np.ndarray
+    weights: np.ndarray
+    depths: np.ndarray
+    key: str
+
+    @property
+    def n_pixels(self) -> int:
+        return self.width * self.height
+
+    @property
+    def nnz(self) -> int:
+        """Number of stored (pixel, Gaussian) weights."""
+        return int(self.weights.shape[0])
+
+    @property
+    def nbytes(self) -> int:
+        """Memory held by the arrays, in bytes."""
+        return int(
+            self.indptr.nbytes + self.indices.nbytes + self.weights.nbytes + self.depths.nbytes
+        )
+
+    def matrix(self) -> sp.csr_matrix:
+        """W as a scipy CSR matrix of shape (H*W, N), float32 (shares the arrays)."""
+        return sp.csr_matrix(
+            (self.weights, self.indices, self.indptr), shape=(self.n_pixels, self.n_gaussians)
+        )
+
+    def alpha(self) -> np.ndarray:
+        """(H, W) float64 accumulated opacity: the sum of the weights of each pixel."""
+        sums = self.matrix().astype(np.float64).sum(axis=1)
+        out = np.asarray(sums).ravel()
+        return out.reshape(self.height, self.width)
+
+    def composite(self, values: np.ndarray) -> np.ndarray:
+        """Composite per-Gaussian ``values`` (N,) or (N, C) into (H, W) or (H, W, C) float64."""
+        v = np.asarray(values, dtype=np.float64)
+        out = self.matrix().astype(np.float64) @ v
+        return np.asarray(out).reshape((self.height, self.width, *v.shape[1:]))
