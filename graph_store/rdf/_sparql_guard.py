@@ -1,0 +1,127 @@
+"""Admission of SPARQL text: parse it as a read-only query or refuse it with a typed error.
+
+The text is parsed with rdflib's SPARQL 1.1 *query* grammar. Anything else is refused:
+
+* update requests (``INSERT``, ``DELETE``, ``LOAD``, ``CLEAR``, ``DROP``, ``CREATE``, ``ADD``,
+  ``MOVE``, ``COPY``, ``WITH``): :class:`SparqlForbiddenError`;
+* ``SERVICE`` anywhere (it calls a remote endpoint): :class:`SparqlForbiddenError`;
+* dataset clauses ``FROM`` / ``FROM NAMED`` (they can fetch remote documents):
+  :class:`SparqlForbiddenError`;
+* text that is not a query: :class:`SparqlSyntaxError` with the parser's position.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from functools import lru_cache
+from typing import Any, Literal
+
+from graph_store.errors import SparqlForbiddenError, SparqlSyntaxError
+from graph_store.rdf._sparql_text import mask_non_code
+from graph_store.rdf.namespace import PREFIXES
+
+QueryKind = Literal["select", "ask", "graph"]
+
+_UPDATE_WORDS = ("INSERT", "DELETE", "LOAD", "CLEAR", "DROP", "CREATE", "ADD", "MOVE", "COPY")
+_UPDATE_RE = re.compile(
+    r"(?<![\w:?$@])(" + "|".join((*_UPDATE_WORDS, "WITH")) + r")(?![\w:])", re.IGNORECASE
+)
+
+
+@dataclass(frozen=True, slots=True)
+class CheckedQuery:
+    """A query admitted by :func:`check_query`.
+
+    ``text``: the text as given; ``kind``: select / ask / graph (CONSTRUCT and DESCRIBE);
+    ``select_all``: a ``SELECT *`` (its columns are then returned sorted by name);
+    ``prepared``: rdflib's translated query (algebra), with the standard prefixes.
+    """
+
+    text: str
+    kind: QueryKind
+    select_all: bool
+    prepared: Any
+
+
+@lru_cache(maxsize=256)
+def check_query(text: str) -> CheckedQuery:
+    """Parse ``text`` as a read-only SPARQL query, or raise (see the module docstring)."""
+    from pyparsing import ParseException
+    from rdflib.plugins.sparql.algebra import translateQuery
+    from rdflib.plugins.sparql.parser import parseQuery
+
+    if not isinstance(text, str):
+        raise SparqlSyntaxError(f"a SPARQL query must be a string, got {type(text).__name__}")
+    try:
+        parsed = parseQuery(text)
+    except ParseException as exc:
+        _refuse_update(text)
+        raise SparqlSyntaxError(f"SPARQL syntax error: {exc}") from None
+    body = parsed[1]
+    if "datasetClause" in body:
+        raise SparqlForbiddenError(
+            "FROM / FROM NAMED dataset clauses are refused: queries run over the scenes' RDF"
+            " view only and never load other graphs"
+        )
+    if _contains_service(parsed):
+        raise SparqlForbiddenError("SERVICE clauses are refused: queries never leave this process")
+    try:
+        prepared = translateQuery(parsed, initNs=dict(PREFIXES))
+    except Exception as exc:  # rdflib raises bare Exception for unknown prefixes
+        raise SparqlSyntaxError(f"SPARQL error: {exc}") from None
+    if _contains_service(prepared.algebra):
+        raise SparqlForbiddenError("SERVICE clauses are refused: queries never leave this process")
+    kind: QueryKind
+    if body.name == "SelectQuery":
+        kind = "select"
+    elif body.name == "AskQuery":
+        kind = "ask"
+    else:
+        kind = "graph"
+    select_all = kind == "select" and "projection" not in body
+    return CheckedQuery(text=text, kind=kind, select_all=select_all, prepared=prepared)
+
+
+def _refuse_update(text: str) -> None:
+    """Raise SparqlForbiddenError when unparsable text reads as an update request."""
+    from pyparsing import ParseException
+    from rdflib.plugins.sparql.parser import parseUpdate
+
+    code = mask_non_code(text)
+    match = _UPDATE_RE.search(code)
+    if match is None:
+        try:
+            update = parseUpdate(text)
+        except ParseException:
+            return
+        if "request" not in update:
+            return  # empty text or a prologue alone: not an update, not a query
+    word = match.group(1).upper() if match else "update"
+    raise SparqlForbiddenError(
+        f"SPARQL {word} is refused: the SPARQL endpoint is read-only (queries only)"
+    )
+
+
+def _contains_service(node: Any) -> bool:
+    """True when a parse tree or algebra contains a SERVICE pattern."""
+    from rdflib.plugins.sparql.parserutils import CompValue
+
+    stack = [node]
+    seen: set[int] = set()
+    while stack:
+        item = stack.pop()
+        if id(item) in seen:
+            continue
+        seen.add(id(item))
+        if isinstance(item, CompValue):
+            if item.name == "ServiceGraphPattern":
+                return True
+            stack.extend(item.values())
+        elif isinstance(item, dict):
+            stack.extend(item.values())
+        elif isinstance(item, list | tuple):
+            stack.extend(item)
+        elif hasattr(item, "asList") and not isinstance(item, str):
+            stack.extend(list(item))
+    return False

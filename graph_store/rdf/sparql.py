@@ -1,0 +1,282 @@
+"""Read-only SPARQL over the RDF view of one or more scene graphs.
+
+>>> view = RdfView.from_graphs(graph)                                    # doctest: +SKIP
+>>> view.query("SELECT ?a ?b WHERE { ?a csg:above ?b }").rows            # doctest: +SKIP
+
+* The standard prefixes (``csg``, ``bot``, ``geo``, ``rdf``, ``rdfs``, ``xsd``, ``owl``) are
+  predeclared; ``PREFIX`` lines in the query take precedence.
+* Only queries run (SELECT, ASK, CONSTRUCT, DESCRIBE). Updates, ``SERVICE`` and
+  ``FROM``/``FROM NAMED`` are refused with :class:`SparqlForbiddenError` before anything is
+  evaluated, on both engines, so a query never opens a network connection.
+* User values go in through ``bindings`` (typed RDF terms), never into the query text.
+* ``limit`` bounds the rows consumed; ``timeout_s`` bounds the caller's wait. The query is
+  evaluated in a daemon worker thread; on timeout the caller gets
+  :class:`SparqlTimeoutError` at once and the evaluation is told to stop. It stops at its
+  next result (oxigraph) or its next triple lookup (rdflib); an oxigraph evaluation that
+  is still computing its first result (a large sort or aggregate) is left to finish in
+  the background, and its result is dropped.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+import re
+import sys
+import threading
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+from typing import Any, Literal, Protocol
+
+from rdflib import XSD, URIRef
+from rdflib import Literal as RdfLiteral
+
+from graph_store.errors import SparqlError, SparqlRowLimitError, SparqlTimeoutError
+from graph_store.rdf._parse import have_pyoxigraph
+from graph_store.rdf._sparql_backends import (
+    OxigraphBackend,
+    QueryCancelled,
+    RawResult,
+    RdflibBackend,
+)
+from graph_store.rdf._sparql_guard import CheckedQuery, QueryKind, check_query
+from graph_store.rdf._sparql_text import render_term
+from graph_store.types import SceneGraph
+
+BackendName = Literal["auto", "oxigraph", "rdflib"]
+_VARNAME_RE = re.compile(r"[^\W][\w\u00b7\u0300-\u036f\u203f\u2040]*\Z")
+
+
+@dataclass(frozen=True, slots=True)
+class SparqlResult:
+    """The answer to one SPARQL query, as plain Python values.
+
+    Attributes:
+        kind: ``"select"``, ``"ask"`` or ``"graph"`` (CONSTRUCT / DESCRIBE).
+        columns: variable names for SELECT (sorted by name for ``SELECT *``);
+            ``("subject", "predicate", "object")`` for graph results; ``()`` for ASK.
+        rows: one tuple per solution or triple. IRIs are ``str``, blank nodes ``"_:label"``,
+            literals their Python value (``int``, ``float``, ``bool``, ``str``; the lexical
+            form for other datatypes), unbound variables ``None``.
+        boolean: the answer of an ASK query, else ``None``.
+        truncated: ``True`` when more than ``limit`` rows were available and only the
+            first ``limit`` are returned.
+    """
+
+    kind: QueryKind
+    columns: tuple[str, ...]
+    rows: tuple[tuple[object, ...], ...]
+    boolean: bool | None = None
+    truncated: bool = False
+
+    def to_json(self) -> dict[str, Any]:
+        """A JSON-ready dict of the fields (rows as lists)."""
+        return {
+            "kind": self.kind,
+            "columns": list(self.columns),
+            "rows": [list(row) for row in self.rows],
+            "boolean": self.boolean,
+            "truncated": self.truncated,
+        }
+
+
+class _Backend(Protocol):
+    name: str
+
+    def __len__(self) -> int: ...
+
+    def run(
+        self,
+        query: CheckedQuery,
+        bindings: Mapping[str, URIRef | RdfLiteral],
+        limit: int,
+        cancel: threading.Event,
+    ) -> RawResult: ...
+
+
+class RdfView:
+    """An immutable, queryable RDF view of scene graphs (built once, queried many times)."""
+
+    def __init__(self, backend: _Backend, scene_ids: tuple[str, ...]) -> None:
+        self._backend = backend
+        self.scene_ids = scene_ids
+
+    @classmethod
+    def from_graphs(
+        cls,
+        graphs: SceneGraph | Iterable[SceneGraph],
+        *,
+        backend: BackendName = "auto",
+        evidence: bool = True,
+    ) -> RdfView:
+        """Build the view. ``backend``: ``"oxigraph"`` (pyoxigraph, fast), ``"rdflib"``, or
+        ``"auto"`` (pyoxigraph when installed, else rdflib). ``evidence``: include the
+        relation assertion nodes (see :func:`~graph_store.rdf.serialize_scenes`)."""
+        from graph_store.rdf.export import as_scene_list, iter_chunks
+
+        items = as_scene_list(graphs)
+        ids = tuple(g.scene_id for g in items)
+        if backend == "auto":
+            backend = "oxigraph" if have_pyoxigraph() else "rdflib"
+        if backend == "oxigraph":
+            if not have_pyoxigraph():
+                raise ImportError(
+                    "the oxigraph SPARQL backend needs pyoxigraph: pip install pyoxigraph"
+                    " (or use backend='rdflib')"
+                )
+            text = "".join(iter_chunks(items, turtle=False, evidence=evidence))
+            return cls(OxigraphBackend(text), ids)
+        if backend == "rdflib":
+            return cls(RdflibBackend(items, evidence=evidence), ids)
+        raise ValueError(f"unknown SPARQL backend {backend!r}; expected oxigraph, rdflib or auto")
+
+    @property
+    def backend(self) -> str:
+        """``"oxigraph"`` or ``"rdflib"``."""
+        return self._backend.name
+
+    def __len__(self) -> int:
+        """The number of triples in the view."""
+        return len(self._backend)
+
+    def query(
+        self,
+        text: str,
+        *,
+        bindings: Mapping[str, Any] | None = None,
+        limit: int = 10_000,
+        timeout_s: float = 30.0,
+        on_limit: Literal["truncate", "error"] = "truncate",
+    ) -> SparqlResult:
+        """Run one read-only SPARQL query.
+
+        ``bindings``: variable name (with or without ``?``) to value: ``str`` binds a plain
+        literal, ``int``/``float``/``bool`` (and numpy scalars) typed literals, ``rdflib.URIRef`` or
+        ``pyoxigraph.NamedNode`` an IRI, ``rdflib.Literal`` / ``pyoxigraph.Literal`` as given.
+        ``limit``: the most rows returned; beyond it the result is truncated
+        (``on_limit="truncate"``) or :class:`SparqlRowLimitError` is raised (``"error"``).
+        ``timeout_s``: raise :class:`SparqlTimeoutError` when no answer came in time.
+        """
+        if isinstance(limit, bool) or not isinstance(limit, int) or limit < 0:
+            raise ValueError(f"limit must be a non-negative integer, got {limit!r}")
+        if not (isinstance(timeout_s, int | float) and timeout_s > 0 and math.isfinite(timeout_s)):
+            raise ValueError(f"timeout_s must be a positive number, got {timeout_s!r}")
+        if on_limit not in ("truncate", "error"):
+            raise ValueError(f"on_limit must be 'truncate' or 'error', got {on_limit!r}")
+        checked = check_query(text)
+        terms = {_var_name(k): to_rdf_term(k, v) for k, v in (bindings or {}).items()}
+        raw = self._run_with_timeout(checked, terms, limit, timeout_s)
+        truncated = len(raw.rows) > limit
+        if truncated and on_limit == "error":
+            raise SparqlRowLimitError(f"the query gives more than {limit} rows (limit={limit})")
+        return SparqlResult(
+            kind=raw.kind,
+            columns=raw.columns,
+            rows=tuple(raw.rows[:limit]),
+            boolean=raw.boolean,
+            truncated=truncated,
+        )
+
+    def _run_with_timeout(
+        self,
+        checked: CheckedQuery,
+        terms: Mapping[str, URIRef | RdfLiteral],
+        limit: int,
+        timeout_s: float,
+    ) -> RawResult:
+        cancel = threading.Event()
+        outcome: list[RawResult | BaseException] = []
+
+        def work() -> None:
+            try:
+                outcome.append(self._backend.run(checked, terms, limit, cancel))
+            except QueryCancelled:
+                pass
+            except BaseException as exc:  # handed to the caller's thread
+                outcome.append(exc)
+
+        worker = threading.Thread(target=work, name="sparql-query", daemon=True)
+        worker.start()
+        worker.join(timeout_s)
+        if worker.is_alive():
+            cancel.set()
+            raise SparqlTimeoutError(f"the SPARQL query did not finish within {timeout_s} s")
+        if not outcome:
+            raise SparqlError("the SPARQL query was cancelled")
+        result = outcome[0]
+        if isinstance(result, BaseException):
+            raise result
+        return result
+
+
+def _var_name(name: object) -> str:
+    if not isinstance(name, str):
+        raise SparqlError(f"binding names must be strings, got {name!r}")
+    bare = name[1:] if name[:1] in ("?", "$") else name
+    if not _VARNAME_RE.match(bare):
+        raise SparqlError(f"binding name {name!r} is not a SPARQL variable name")
+    return bare
+
+
+def to_rdf_term(name: str, value: Any) -> URIRef | RdfLiteral:
+    """The RDF term a binding value stands for (see :meth:`RdfView.query`).
+
+    Raises :class:`SparqlError` for values of other types and for IRIs, datatypes or
+    language tags that are not valid in SPARQL.
+    """
+    term = _to_term(name, value)
+    try:
+        render_term(term)
+    except SparqlError as exc:
+        raise SparqlError(f"binding {name!r}: {exc}") from None
+    return term
+
+
+def _to_term(name: str, value: Any) -> URIRef | RdfLiteral:
+    if isinstance(value, URIRef):
+        return value
+    if isinstance(value, RdfLiteral):
+        return _plain_if_string(value)
+    bool_types = (bool, *numpy_bool_types())
+    if isinstance(value, bool_types):
+        return RdfLiteral("true" if value else "false", datatype=XSD.boolean)
+    if isinstance(value, numbers.Integral):
+        return RdfLiteral(str(int(value)), datatype=XSD.integer)
+    if isinstance(value, numbers.Real):
+        return RdfLiteral(repr(float(value)), datatype=XSD.double)
+    if isinstance(value, str):
+        return RdfLiteral(value)
+    converted = _from_pyoxigraph(value)
+    if converted is not None:
+        return converted
+    raise SparqlError(
+        f"binding {name!r}: cannot bind a {type(value).__name__} ({value!r}); use str, int,"
+        " float, bool, rdflib.URIRef/Literal or pyoxigraph.NamedNode/Literal"
+    )
+
+
+def numpy_bool_types() -> tuple[type, ...]:
+    """``numpy.bool_`` when numpy is loaded (it is not a ``bool`` subclass)."""
+    numpy = sys.modules.get("numpy")
+    return (numpy.bool_,) if numpy is not None else ()
+
+
+def _from_pyoxigraph(value: Any) -> URIRef | RdfLiteral | None:
+    if not have_pyoxigraph():
+        return None
+    import pyoxigraph as ox
+
+    if isinstance(value, ox.NamedNode):
+        return URIRef(value.value)
+    if isinstance(value, ox.Literal):
+        if value.language:
+            return RdfLiteral(value.value, lang=value.language)
+        return _plain_if_string(RdfLiteral(value.value, datatype=URIRef(value.datatype.value)))
+    return None
+
+
+def _plain_if_string(value: RdfLiteral) -> RdfLiteral:
+    """``"x"^^xsd:string`` as the simple literal ``"x"`` (the same term in RDF 1.1)."""
+    if value.datatype == XSD.string:
+        return RdfLiteral(str(value))
+    return value
