@@ -17,6 +17,7 @@ first time it is needed and keeps it (and its RDF view) for later calls; call
 from __future__ import annotations
 
 import os
+import re
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
@@ -39,7 +40,17 @@ if TYPE_CHECKING:
 
 DEFAULT_URL = "sqlite:///causalsplat.db"
 RdfFormat = Literal["turtle", "ntriples", "jsonld"]
-SparqlBackend = Literal["oxigraph", "rdflib"]
+SparqlBackend = Literal["auto", "oxigraph", "rdflib"]
+
+#: Terms that only the relation-evidence part of the RDF view carries. A query that names
+#: none of them runs on the lighter view without evidence (3x fewer triples to load).
+_EVIDENCE_TERMS = re.compile(
+    r"(csg:|causalsplat/ns#)(RelationAssertion|hasEvidence|Evidence|subject|predicate|object)\b"
+)
+
+
+def _needs_evidence(query: str) -> bool:
+    return _EVIDENCE_TERMS.search(query) is not None
 
 
 def open_store(url: str | None = None, *, create: bool = True) -> Store:
@@ -58,6 +69,7 @@ class Store:
 
     def __init__(self, graph_store: GraphStore) -> None:
         self.graph_store = graph_store
+        self._views: dict[tuple[Any, ...], RdfView] = {}
 
     def __repr__(self) -> str:
         return f"Store({self.graph_store.url!r})"
@@ -142,12 +154,31 @@ class Store:
         bindings: Mapping[str, Any] | None = None,
         limit: int = 10_000,
         timeout_s: float = 30.0,
-        backend: SparqlBackend = "oxigraph",
+        backend: SparqlBackend = "auto",
+        evidence: bool | None = None,
     ) -> SparqlResult:
-        """Read-only SPARQL over the RDF view of some scenes (all when ``scene_ids`` is None)."""
+        """Read-only SPARQL over the RDF view of some scenes (all when ``scene_ids`` is None).
+
+        The view is built once and reused while the scenes it holds are unchanged in the
+        store. It includes relation evidence only when the query names evidence terms
+        (``csg:RelationAssertion``, ``csg:hasEvidence``...), unless ``evidence`` says.
+        """
         from graph_store.rdf import RdfView
 
-        view = RdfView.from_graphs(self._graphs(scene_ids), backend=backend)
+        with_evidence = _needs_evidence(query) if evidence is None else evidence
+        stamps = {s.scene_id: s.created_at for s in self.scenes()}
+        ids = tuple(sorted(stamps)) if scene_ids is None else tuple(sorted(set(scene_ids)))
+        for sid in ids:
+            if sid not in stamps:
+                raise SceneNotFound(f"no scene {sid!r} in the store at {self.graph_store.url}")
+        key = (ids, tuple(stamps[sid] for sid in ids), backend, with_evidence)
+        view = self._views.get(key)
+        if view is None:
+            graphs = [self.graph_store.load_scene(sid) for sid in ids]
+            self._views.clear()  # keep one view: they can be large
+            view = self._views[key] = RdfView.from_graphs(
+                graphs, backend=backend, evidence=with_evidence
+            )
         return view.query(query, bindings=bindings, limit=limit, timeout_s=timeout_s)
 
     def _graphs(self, scene_ids: Sequence[str] | None) -> list[SceneGraph]:
@@ -205,18 +236,24 @@ class Scene:
         bindings: Mapping[str, Any] | None = None,
         limit: int = 10_000,
         timeout_s: float = 30.0,
-        backend: SparqlBackend = "oxigraph",
+        backend: SparqlBackend = "auto",
+        evidence: bool | None = None,
     ) -> SparqlResult:
         """Read-only SPARQL over this scene's RDF view (built once per handle).
 
         Standard prefixes (``csg:``, ``bot:``, ``geo:``, ``rdf:``, ``rdfs:``, ``xsd:``,
-        ``owl:``) are predeclared; user values go in through ``bindings``.
+        ``owl:``) are predeclared; user values go in through ``bindings``. Relation evidence
+        is in the view when the query names evidence terms, or when ``evidence=True``.
         """
-        view = self._rdf.get(backend)
+        with_evidence = _needs_evidence(query) if evidence is None else evidence
+        key = f"{backend}:{with_evidence}"
+        view = self._rdf.get(key)
         if view is None:
             from graph_store.rdf import RdfView
 
-            view = self._rdf[backend] = RdfView.from_graphs([self.graph], backend=backend)
+            view = self._rdf[key] = RdfView.from_graphs(
+                [self.graph], backend=backend, evidence=with_evidence
+            )
         return view.query(query, bindings=bindings, limit=limit, timeout_s=timeout_s)
 
     def export_rdf(

@@ -162,7 +162,7 @@ def _parse_binding(text: str) -> tuple[str, Any]:
 )  # fmt: skip
 @click.option("--limit", type=click.IntRange(min=1), default=10_000, show_default=True)
 @click.option("--timeout", type=click.FloatRange(min=0.001), default=30.0, show_default=True)
-@click.option("--backend", type=click.Choice(["oxigraph", "rdflib"]), default="oxigraph")
+@click.option("--backend", type=click.Choice(["auto", "oxigraph", "rdflib"]), default="auto")
 @db_option
 @json_option
 def sparql(
