@@ -19,6 +19,8 @@ Rules:
 - ``attributes`` maps a key to a string or a list of strings; each value is stored with
   source ``input``.
 - ``units`` defaults to ``"m"``, ``up`` to ``"z"``.
+- Relations come from the scene-graph edge builder (:mod:`causalsplat.graph.edges`),
+  the same rules as for scenes built from a Gaussian field, with ``up`` as the vertical.
 
 Every problem raises :class:`~causalsplat.errors.InputFormatError` naming the file and
 the JSON path of the bad value (``objects[3].center[1]``); nothing is stored.
@@ -34,7 +36,18 @@ from pathlib import Path
 from typing import Any
 
 from causalsplat.errors import InputFormatError
-from graph_store import Attribute, AttributeSource, Entity, InvalidSceneError, SceneGraph, SceneMeta
+from causalsplat.graph.config import EdgeConfig
+from causalsplat.graph.edges import build_relations
+from causalsplat.graph.errors import GraphBuildError
+from graph_store import (
+    Attribute,
+    AttributeSource,
+    Entity,
+    InvalidSceneError,
+    Relation,
+    SceneGraph,
+    SceneMeta,
+)
 
 
 @dataclass(frozen=True, slots=True)
@@ -108,8 +121,16 @@ def parse_objects(document: Any, *, source: str = "<objects>", sha256: str = "")
     return ObjectsFile(scene_id, units, up, objects, sha256, source)
 
 
-def objects_to_scene_graph(objects: ObjectsFile, *, scene_id: str | None = None) -> SceneGraph:
-    """Turn parsed objects into a scene graph with entities and no relations yet."""
+def objects_to_scene_graph(
+    objects: ObjectsFile,
+    *,
+    scene_id: str | None = None,
+    config: EdgeConfig | None = None,
+    relations: bool = True,
+) -> SceneGraph:
+    """Turn parsed objects into a scene graph: entities and, unless ``relations=False``,
+    the spatial relations of :func:`causalsplat.graph.build_relations` (with ``config``,
+    the file's ``up`` axis as the vertical)."""
     sid = scene_id or objects.scene_id
     if not sid:
         raise InputFormatError(
@@ -151,8 +172,14 @@ def objects_to_scene_graph(objects: ObjectsFile, *, scene_id: str | None = None)
         source="objects",
         provenance=(("objects_sha256", objects.sha256),) if objects.sha256 else (),
     )
+    edges: tuple[Relation, ...] = ()
+    if relations:
+        try:
+            edges = build_relations(entities, config, up_axis=objects.up)
+        except GraphBuildError as exc:
+            raise InputFormatError(f"{objects.source}: {exc}") from exc
     try:
-        return SceneGraph(meta=meta, entities=tuple(entities))
+        return SceneGraph(meta=meta, entities=tuple(entities), relations=edges)
     except InvalidSceneError as exc:
         raise InputFormatError(f"{objects.source}: {exc}") from exc
 

@@ -49,11 +49,12 @@ def test_ingest_list_export_and_query(tmp_path: Path) -> None:
     objects = tmp_path / "objects.json"
     objects.write_text(json.dumps(KITCHEN))
     ingested = json.loads(run("ingest-objects", str(objects), "--json", db=db).stdout)
+    # Sink and towel are near each other with overlapping heights (next_to), both ways.
     assert ingested == {
         "scene_id": "kitchen",
         "entities": 2,
-        "relations": 0,
-        "relations_by_type": {},
+        "relations": 4,
+        "relations_by_type": {"near": 2, "next_to": 2},
     }
     [row] = json.loads(run("scenes", "--json", db=db).stdout)
     assert (row["scene_id"], row["entities"]) == ("kitchen", 2)

@@ -9,6 +9,7 @@ from typing import Any
 import pytest
 
 from causalsplat import InputFormatError, open_store
+from causalsplat.graph import EdgeConfig, build_relations
 from causalsplat.objects import objects_to_scene_graph, parse_objects, read_objects
 from tests.conftest import shared_data_path
 
@@ -40,8 +41,36 @@ def test_objects_become_entities_with_input_ids(tmp_path: Path) -> None:
     assert sink.centroid == (1.0, 2.0, 0.9) and sink.point_count == 0
     assert sink.attribute_values("affordance") == ("rinse", "wash hands")
     assert towel.centroid == pytest.approx((1.5, 2.0, 1.1)) and towel.point_count == 3
-    assert graph.meta.units == "m" and graph.meta.up_axis == "z" and graph.relations == ()
+    assert graph.meta.units == "m" and graph.meta.up_axis == "z"
     assert dict(graph.meta.provenance)["objects_sha256"]
+
+
+def test_objects_get_relations_from_the_edge_builder(tmp_path: Path) -> None:
+    objects = read_objects(write(tmp_path, KITCHEN))
+    graph = objects_to_scene_graph(objects)
+    # Centroids 0.539 apart < 1.5 x (0.361 + 0.103) footprint half-diagonals, z ranges
+    # overlap by 0.2; the towel is beside the sink, neither above nor on it.
+    assert {(r.src, r.type.value, r.dst) for r in graph.relations} == {
+        (4, "near", 7), (7, "near", 4), (4, "next_to", 7), (7, "next_to", 4)
+    }  # fmt: skip
+    near = next(r for r in graph.relations if r.type.value == "near")
+    assert near.evidence_dict["distance"] == pytest.approx(0.29**0.5)
+    assert graph.relations == build_relations(graph.entities)
+    assert objects_to_scene_graph(objects, relations=False).relations == ()
+    strict = objects_to_scene_graph(objects, config=EdgeConfig(near_factor=1.0))
+    assert strict.relations == ()
+
+
+def test_up_axis_of_the_file_is_the_vertical(tmp_path: Path) -> None:
+    stack = {"objects": [
+        {"id": 1, "label": "table", "center": [0, 0.4, 0], "size": [1, 0.8, 1]},
+        {"id": 2, "label": "cup", "center": [0, 0.85, 0], "size": [0.1, 0.1, 0.1]},
+    ]}  # fmt: skip
+    y_up = objects_to_scene_graph(parse_objects({**stack, "up": "y"}), scene_id="s")
+    kinds = {(r.src, r.type.value, r.dst) for r in y_up.relations}
+    assert {(2, "supported_by", 1), (2, "above", 1), (1, "below", 2)} <= kinds
+    z_up = objects_to_scene_graph(parse_objects(stack), scene_id="s")
+    assert not {k for k in (r.type.value for r in z_up.relations) if k == "supported_by"}
 
 
 def test_string_ids_get_positional_local_ids() -> None:
