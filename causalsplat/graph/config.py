@@ -32,6 +32,10 @@ class EdgeConfig:
         touch_height_factor: the touch tolerance of a pair is also at most this many times
             the taller box of the pair (``tol = min(touch_fraction·S_z,
             touch_height_factor·max(h_upper, h_lower))``); ``math.inf`` disables the clamp.
+        reduce_support: when True (default), an object does not rest on what its other
+            supporters rest on (a cup on a book on a table rests on the book only); False
+            keeps every pair that passes the touch rule. See
+            ``causalsplat/graph/_support_reduction.py``.
         support_overlap: support needs the top-view overlap of the two boxes to cover at
             least this fraction of the upper entity's footprint (Sr3D's 0.3); in ``(0, 1]``.
         contain_overlap: containment needs the box overlap to cover at least this
@@ -53,6 +57,7 @@ class EdgeConfig:
     horizontal_max_fraction: float = 0.35
     touch_fraction: float = 0.06
     touch_height_factor: float = math.inf
+    reduce_support: bool = True
     support_overlap: float = 0.3
     contain_overlap: float = 0.8
     near_factor: float = 1.5
@@ -66,11 +71,9 @@ class EdgeConfig:
             value = getattr(self, f.name)
             if f.name.endswith("_categories"):
                 object.__setattr__(self, f.name, _categories(f.name, value))
-            elif f.name == "relate_structural":
+            elif f.name in ("relate_structural", "reduce_support"):
                 if not isinstance(value, bool):
-                    raise EdgeConfigError(
-                        f"EdgeConfig.relate_structural must be a bool, got {value!r}"
-                    )
+                    raise EdgeConfigError(f"EdgeConfig.{f.name} must be a bool, got {value!r}")
             else:
                 _number(f.name, value)
         min_fraction = self.horizontal_min_fraction

@@ -39,9 +39,11 @@ B and B below A; near both ways), so a query can start from either end:
   extent widened by ``tol`` on both sides (and U's box need not be the higher one), since
   reconstructed floor boxes are thick (ScanNet scene0000_00: the floor spans z = -0.06 to
   0.29 m while the furniture stands at z ≈ 0). Walls and ceilings support nothing and are
-  never supported; with no floor entity nothing is floor-supported. An entity keeps
-  every supporter that passes. Evidence: ``gap``, ``touch_tolerance``, ``overlap``
-  (fraction of U's footprint), ``distance``.
+  never supported; with no floor entity nothing is floor-supported. Of the supporters
+  that pass, an entity drops those its other supporters rest on (``reduce_support``
+  [True]): a cup on a book on a table rests on the book only, a board across two stools
+  on both. Evidence: ``gap``,
+  ``touch_tolerance``, ``overlap`` (fraction of U's footprint), ``distance``.
 - **inside / contains**: A is inside B when A's box volume is strictly smaller and the
   box overlap covers at least ``contain_overlap`` [0.8] of A's volume; never with a
   floor, wall or ceiling. Evidence: ``overlap`` (fraction of A's volume),
@@ -89,6 +91,7 @@ from causalsplat.graph._edge_rules import (
 )
 from causalsplat.graph._edge_scene import EdgeScene, prepare_scene
 from causalsplat.graph._edges_reference import reference_relations
+from causalsplat.graph._support_reduction import reduce_supporters
 from causalsplat.graph.config import EdgeConfig
 from graph_store import Entity, Relation, RelationType
 
@@ -118,7 +121,7 @@ def build_relations(
         from causalsplat.graph.errors import EdgeInputError
 
         raise EdgeInputError(f"candidates must be 'kdtree' or 'all', got {candidates!r}")
-    return _relations(scene, batches)
+    return tuple(reduce_supporters(_relations(scene, batches), config))
 
 
 def build_relations_bruteforce(
@@ -131,7 +134,7 @@ def build_relations_bruteforce(
     ids = scene.ids.tolist()
     relations = [Relation(ids[s], ids[d], t, tuple(ev.items())) for (s, t, d), ev in found.items()]
     relations.sort(key=_order)
-    return tuple(relations)
+    return tuple(reduce_supporters(relations, config))
 
 
 def _kdtree_batches(scene: EdgeScene, config: EdgeConfig) -> list[EdgeBatch]:
