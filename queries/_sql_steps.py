@@ -1,0 +1,353 @@
+"""SQL compilation of each op: one CTE per step over the store tables (SQLAlchemy Core).
+
+Every step becomes a ``SELECT`` with a single ``id`` column, reading its inputs' CTEs and
+the ``entities`` / ``entity_attributes`` / ``relations`` rows of one scene. Geometric
+predicates come from :mod:`queries.semantics` through :class:`SqlAlgebra`; the strings that
+text filters select are worked out in Python from the scene's distinct stored strings and
+bound as parameters (see the semantics module).
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from typing import Any
+
+import sqlalchemy as sa
+from sqlalchemy.engine import Connection
+from sqlalchemy.sql.elements import BinaryExpression, ColumnElement
+
+from graph_store import models as m
+from graph_store.types import RelationType
+from queries.model import Metric, Op, Step
+from queries.semantics import (
+    Algebra,
+    QueryConfig,
+    attribute_filter,
+    between,
+    centre_coordinate,
+    matching_attributes,
+    matching_categories,
+    metric_value,
+    rank_texts,
+    squared_distance,
+    view_relation,
+)
+
+E, ATTR, REL = m.entities, m.entity_attributes, m.relations
+Num = ColumnElement[Any]
+Cond = ColumnElement[bool]
+#: Rank given to texts that do not match in ``match_text`` (larger than any real rank).
+NO_RANK = 2_000_000_000
+
+
+class SqlAlgebra(Algebra[Num, Cond]):
+    """The semantics' algebra as SQL expressions (doubles on SQLite and PostgreSQL).
+
+    SQL renders ``a + (b + c)`` as ``a + b + c``; a right operand that is itself a binary
+    expression is wrapped in ``CAST(... AS DOUBLE)`` so the evaluation order is kept.
+    """
+
+    @staticmethod
+    def _keep(expr: Num) -> Num:
+        return sa.cast(expr, sa.Double()) if isinstance(expr, BinaryExpression) else expr
+
+    def const(self, value: float) -> Num:
+        return sa.literal(float(value), sa.Double())
+
+    def add(self, a: Num, b: Num) -> Num:
+        return a + self._keep(b)
+
+    def sub(self, a: Num, b: Num) -> Num:
+        return a - self._keep(b)
+
+    def mul(self, a: Num, b: Num) -> Num:
+        return a * self._keep(b)
+
+    def neg(self, a: Num) -> Num:
+        return -self._keep(a)
+
+    def abs(self, a: Num) -> Num:
+        return sa.func.abs(a, type_=sa.Double())
+
+    def lt(self, a: Num, b: Num) -> Cond:
+        return a < b
+
+    def le(self, a: Num, b: Num) -> Cond:
+        return a <= b
+
+    def gt(self, a: Num, b: Num) -> Cond:
+        return a > b
+
+    def ge(self, a: Num, b: Num) -> Cond:
+        return a >= b
+
+    def all(self, *conditions: Cond) -> Cond:
+        return sa.and_(*conditions)
+
+
+SQL = SqlAlgebra()
+
+
+def ids_literal(ids: set[int] | frozenset[int] | list[int], name: str) -> Any:
+    """A list of entity ids rendered inline (integers from the database, never user text),
+    so large sets do not run into the drivers' parameter limits."""
+    return sa.bindparam(name, sorted(ids), expanding=True, literal_execute=True)
+
+
+class SqlSteps:
+    """Per-run compiler state: the scene, lazily read distinct strings, shared CTEs."""
+
+    def __init__(self, conn: Connection, scene_id: str, config: QueryConfig) -> None:
+        self.conn, self.scene_id, self.config = conn, scene_id, config
+        self._categories: list[str] | None = None
+        self._captions: list[str] | None = None
+        self._attributes: list[tuple[str, str]] | None = None
+        self._centre: Any = None
+        self._support: Any = None
+        self.whole: set[int] = set()  # steps whose result is the whole scene
+
+    # -- shared pieces -------------------------------------------------------------------
+
+    def categories(self) -> list[str]:
+        if self._categories is None:
+            q = sa.select(E.c.category).where(E.c.scene_id == self.scene_id).distinct()
+            self._categories = list(self.conn.execute(q).scalars())
+        return self._categories
+
+    def captions(self) -> list[str]:
+        if self._captions is None:
+            q = (
+                sa.select(E.c.caption)
+                .where(E.c.scene_id == self.scene_id, E.c.caption.is_not(None))
+                .distinct()
+            )
+            self._captions = list(self.conn.execute(q).scalars())
+        return self._captions
+
+    def attributes(self) -> list[tuple[str, str]]:
+        if self._attributes is None:
+            q = sa.select(ATTR.c.key, ATTR.c.value).where(ATTR.c.scene_id == self.scene_id)
+            self._attributes = [(k, v) for k, v in self.conn.execute(q.distinct())]
+        return self._attributes
+
+    def centre(self) -> Any:
+        """A one-row CTE ``centre(x, y, z)``: the scene centre."""
+        if self._centre is None:
+            cols = [
+                centre_coordinate(SQL, sa.func.min(lo), sa.func.max(hi)).label(axis)
+                for axis, lo, hi in (
+                    ("x", E.c.min_x, E.c.max_x),
+                    ("y", E.c.min_y, E.c.max_y),
+                    ("z", E.c.min_z, E.c.max_z),
+                )
+            ]
+            self._centre = sa.select(*cols).where(E.c.scene_id == self.scene_id).cte("centre")
+        return self._centre
+
+    def support(self) -> Any:
+        """A CTE ``support(upper, lower)``: ``upper`` rests on ``lower``."""
+        if self._support is None:
+            down = sa.select(REL.c.src.label("upper"), REL.c.dst.label("lower")).where(
+                REL.c.scene_id == self.scene_id, REL.c.type == RelationType.SUPPORTED_BY.value
+            )
+            up = sa.select(REL.c.dst, REL.c.src).where(
+                REL.c.scene_id == self.scene_id, REL.c.type == RelationType.SUPPORTS.value
+            )
+            self._support = sa.union(down, up).cte("support")
+        return self._support
+
+    def resting_on(self, lower: Any) -> Any:
+        """Ids resting directly on one of ``lower`` (an id list), possibly repeated."""
+        down = sa.select(REL.c.src.label("id")).where(
+            REL.c.scene_id == self.scene_id,
+            REL.c.type == RelationType.SUPPORTED_BY.value,
+            REL.c.dst.in_(lower),
+        )
+        up = sa.select(REL.c.dst).where(
+            REL.c.scene_id == self.scene_id,
+            REL.c.type == RelationType.SUPPORTS.value,
+            REL.c.src.in_(lower),
+        )
+        return sa.union_all(down, up)
+
+    def held_outside(self, upper: Any, known: Any) -> Cond:
+        """``upper`` rests on something not in ``known`` (an id list)."""
+        r = REL.alias("held")
+        down = sa.exists(
+            sa.select(r.c.src).where(
+                r.c.scene_id == self.scene_id,
+                r.c.src == upper,
+                r.c.type == RelationType.SUPPORTED_BY.value,
+                r.c.dst.not_in(known),
+            )
+        )
+        r2 = REL.alias("held_up")
+        up = sa.exists(
+            sa.select(r2.c.dst).where(
+                r2.c.scene_id == self.scene_id,
+                r2.c.dst == upper,
+                r2.c.type == RelationType.SUPPORTS.value,
+                r2.c.src.not_in(known),
+            )
+        )
+        return sa.or_(down, up)
+
+    def supporter_edges(self, uppers: Any) -> Any:
+        """``(upper, lower)`` for every support edge from one of ``uppers`` (an id list)."""
+        down = sa.select(REL.c.src, REL.c.dst).where(
+            REL.c.scene_id == self.scene_id,
+            REL.c.type == RelationType.SUPPORTED_BY.value,
+            REL.c.src.in_(uppers),
+        )
+        up = sa.select(REL.c.dst, REL.c.src).where(
+            REL.c.scene_id == self.scene_id,
+            REL.c.type == RelationType.SUPPORTS.value,
+            REL.c.dst.in_(uppers),
+        )
+        return sa.union(down, up)
+
+    def members(self, column: Any, step: int, cte: Any) -> Cond:
+        """``column`` is in the input set (always true for a whole-scene input)."""
+        if step in self.whole:
+            return sa.true()
+        cond: Cond = column.in_(sa.select(cte.c.id))
+        return cond
+
+    def entity(self, name: str) -> Any:
+        return E.alias(name)
+
+    # -- ops -----------------------------------------------------------------------------
+
+    def scene(self) -> Any:
+        return sa.select(E.c.id).where(E.c.scene_id == self.scene_id)
+
+    def filter_category(self, step: Step, src: tuple[int, Any]) -> Any:
+        cats = matching_categories(step.value or "", self.categories())
+        return sa.select(E.c.id).where(
+            E.c.scene_id == self.scene_id, E.c.category.in_(cats), self.members(E.c.id, *src)
+        )
+
+    def filter_attribute(self, step: Step, src: tuple[int, Any]) -> Any:
+        key, value = attribute_filter(step.op.value, step.value or "", self.config)
+        by_key: dict[str, list[str]] = defaultdict(list)
+        for k, v in matching_attributes(key, value, self.attributes()):
+            by_key[k].append(v)
+        cond = sa.or_(
+            sa.false(),
+            *(sa.and_(ATTR.c.key == k, ATTR.c.value.in_(vs)) for k, vs in by_key.items()),
+        )
+        return (
+            sa.select(ATTR.c.entity_id.label("id"))
+            .where(ATTR.c.scene_id == self.scene_id, cond)
+            .where(self.members(ATTR.c.entity_id, *src))
+            .distinct()
+        )
+
+    def match_text(self, step: Step, src: tuple[int, Any]) -> Any:
+        ranks = rank_texts(step.value or "", [*self.categories(), *self.captions()])
+        base = sa.select(E.c.id).where(E.c.scene_id == self.scene_id, self.members(E.c.id, *src))
+        if not ranks:
+            return base.where(sa.false())
+        by_cat = sa.case(ranks, value=E.c.category, else_=NO_RANK)
+        by_cap = sa.case(ranks, value=E.c.caption, else_=NO_RANK)
+        best = sa.case((by_cat <= by_cap, by_cat), else_=by_cap)
+        return base.where(best < NO_RANK).order_by(best, E.c.id).limit(step.effective_k)
+
+    def relate(self, step: Step, subj: tuple[int, Any], anchor: tuple[int, Any]) -> Any:
+        rel = step.relation
+        assert rel is not None
+        if rel.is_view_dependent:
+            return self._view_relate(step, rel, subj, anchor)
+        forward = sa.select(REL.c.src.label("id")).where(
+            REL.c.scene_id == self.scene_id,
+            REL.c.type == rel.value,
+            self.members(REL.c.dst, *anchor),
+            self.members(REL.c.src, *subj),
+        )
+        backward = sa.select(REL.c.dst).where(
+            REL.c.scene_id == self.scene_id,
+            REL.c.type == rel.inverse.value,
+            self.members(REL.c.src, *anchor),
+            self.members(REL.c.dst, *subj),
+        )
+        return sa.union_all(forward, backward)  # may repeat ids; readers allow for it
+
+    def _view_relate(
+        self, step: Step, rel: RelationType, subj: tuple[int, Any], anchor: tuple[int, Any]
+    ) -> Any:
+        s, a = self.entity("s"), self.entity("a")
+        vp = step.viewpoint
+        query = sa.select(s.c.id).distinct()
+        if vp is None:
+            c = self.centre()
+            eye, target = (c.c.x, c.c.y), (a.c.cx, a.c.cy)
+            query = query.select_from(s.join(a, sa.true()).join(c, sa.true()))
+        else:
+            eye = (SQL.const(vp.eye[0]), SQL.const(vp.eye[1]))
+            target = (SQL.const(vp.target[0]), SQL.const(vp.target[1]))
+        cond = view_relation(SQL, rel, (s.c.cx, s.c.cy), (a.c.cx, a.c.cy), eye, target)
+        return query.where(
+            s.c.scene_id == self.scene_id,
+            a.c.scene_id == self.scene_id,
+            self.members(s.c.id, *subj),
+            self.members(a.c.id, *anchor),
+            cond,
+        )
+
+    def relate_between(self, step: Step, *inputs: tuple[int, Any]) -> Any:
+        s, a, b = self.entity("s"), self.entity("a"), self.entity("b")
+        cond = between(
+            SQL,
+            (s.c.cx, s.c.cy),
+            (a.c.cx, a.c.cy),
+            (b.c.cx, b.c.cy),
+            self.config.between_lateral_ratio,
+        )
+        where = [t.c.scene_id == self.scene_id for t in (s, a, b)] + [
+            self.members(t.c.id, *src) for t, src in zip((s, a, b), inputs, strict=True)
+        ]
+        return sa.select(s.c.id).distinct().where(*where, cond)
+
+    def rank(self, step: Step, *inputs: tuple[int, Any]) -> Any:
+        metric = step.metric
+        assert metric is not None
+        s = self.entity("s")
+        centroid = (s.c.cx, s.c.cy, s.c.cz)
+        base = [s.c.scene_id == self.scene_id, self.members(s.c.id, *inputs[0])]
+        if metric is not Metric.DISTANCE:
+            lo, hi = (s.c.min_x, s.c.min_y, s.c.min_z), (s.c.max_x, s.c.max_y, s.c.max_z)
+            keyed = sa.select(
+                s.c.id, metric_value(SQL, metric.value, centroid, lo, hi).label("v")
+            ).where(*base)
+        elif len(inputs) == 2:
+            a = self.entity("a")
+            d = squared_distance(SQL, centroid, (a.c.cx, a.c.cy, a.c.cz))
+            keyed = (
+                sa.select(s.c.id, sa.func.min(d).label("v"))
+                .where(*base, a.c.scene_id == self.scene_id, a.c.id != s.c.id)
+                .where(self.members(a.c.id, *inputs[1]))
+                .group_by(s.c.id)
+            )
+        else:
+            c = self.centre()
+            d = squared_distance(SQL, centroid, (c.c.x, c.c.y, c.c.z))
+            keyed = sa.select(s.c.id, d.label("v")).select_from(s.join(c, sa.true())).where(*base)
+        sub = keyed.subquery("keyed")
+        order = sub.c.v.asc() if step.op is Op.ARGMIN else sub.c.v.desc()
+        return sa.select(sub.c.id).order_by(order, sub.c.id).limit(step.effective_k)
+
+    def set_op(self, op: Op, inputs: list[tuple[int, Any]]) -> Any:
+        ctes = [cte for _, cte in inputs]
+        if op is Op.UNION:
+            return sa.union(*(sa.select(c.c.id) for c in ctes))
+        first = sa.select(ctes[0].c.id)
+        if op is Op.INTERSECT:
+            return first.where(*(ctes[0].c.id.in_(sa.select(c.c.id)) for c in ctes[1:]))
+        return first.where(ctes[0].c.id.not_in(sa.select(ctes[1].c.id)))
+
+    def support_closure(self, name: str, src: tuple[int, Any]) -> Any:
+        """A recursive CTE: everything resting on the input, through one or more edges."""
+        sup = self.support()
+        seed = sa.select(sup.c.upper.label("id")).where(self.members(sup.c.lower, *src))
+        closure = seed.cte(name, recursive=True)
+        return closure.union(sa.select(sup.c.upper).where(sup.c.lower == closure.c.id))

@@ -1,0 +1,364 @@
+"""The wire format of the structured graph-query language (DESIGN §6), as pydantic models.
+
+A program is a flat list of steps in single assignment: step ``i`` may only read the
+results of steps ``0..i-1`` (its ``inputs``). Every step yields a set of entity ids,
+except ``count`` (a number) and ``exists`` (a bool), whose results are never inputs.
+
+>>> q = GraphQuery.parse({
+...     "query_type": "spatial",
+...     "steps": [
+...         {"op": "scene"},
+...         {"op": "filter_category", "inputs": [0], "value": "sink"},
+...         {"op": "filter_category", "inputs": [0], "value": "towel"},
+...         {"op": "relate", "inputs": [2, 1], "relation": "near"},
+...     ],
+...     "answer_step": 3,
+... })
+>>> print(q.to_text())
+query spatial
+v0 = scene()
+v1 = filter_category(v0, "sink")
+v2 = filter_category(v0, "towel")
+v3 = relate(v2, v1, near)
+return v3
+
+Every way in (:meth:`GraphQuery.parse`, ``GraphQuery(...)``, ``model_validate``,
+``model_validate_json``, :meth:`GraphQuery.from_text`) raises only
+:class:`~queries.errors.QueryValidationError` on bad input, naming the step and the field.
+The per-op rules are in :data:`OP_SPECS` and :mod:`queries._validate`.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from contextvars import ContextVar
+from dataclasses import dataclass
+from enum import StrEnum
+from typing import Annotated, Any, Self, TypeVar
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from graph_store.types import RelationType
+from queries.errors import QueryValidationError
+
+#: Most steps a program may have.
+MAX_STEPS = 64
+#: Most inputs of one ``union`` / ``intersect`` step.
+MAX_SET_INPUTS = 8
+#: Largest ``k`` (ranked ops keep at most this many entities).
+MAX_K = 100_000
+#: Longest ``value`` string, in characters.
+MAX_VALUE_LENGTH = 512
+
+
+class QueryType(StrEnum):
+    """The reasoning level of a program (stage 1 of the method)."""
+
+    INTRINSIC = "intrinsic"
+    SPATIAL = "spatial"
+    COMMONSENSE = "commonsense"
+    AFFORDANCE = "affordance"
+    COUNTERFACTUAL = "counterfactual"
+
+
+class Op(StrEnum):
+    """The operations of the language; see :data:`OP_SPECS` for their signatures."""
+
+    SCENE = "scene"
+    FILTER_CATEGORY = "filter_category"
+    FILTER_ATTRIBUTE = "filter_attribute"
+    FILTER_AFFORDANCE = "filter_affordance"
+    MATCH_TEXT = "match_text"
+    RELATE = "relate"
+    RELATE_BETWEEN = "relate_between"
+    ARGMIN = "argmin"
+    ARGMAX = "argmax"
+    UNION = "union"
+    INTERSECT = "intersect"
+    DIFFERENCE = "difference"
+    SUPPORT_CLOSURE = "support_closure"
+    FALL_IF_REMOVED = "fall_if_removed"
+    COUNT = "count"
+    EXISTS = "exists"
+
+
+class Metric(StrEnum):
+    """What ``argmin`` / ``argmax`` rank by (all in scene units, world frame).
+
+    ``distance``: centroid distance to the nearest *other* member of the second input
+    (without one: to the scene centre); ``z`` / ``x`` / ``y``: centroid coordinate;
+    ``height``: vertical bounding-box extent; ``volume``: bounding-box volume.
+    """
+
+    DISTANCE = "distance"
+    Z = "z"
+    HEIGHT = "height"
+    VOLUME = "volume"
+    X = "x"
+    Y = "y"
+
+
+@dataclass(frozen=True, slots=True)
+class OpSpec:
+    """The signature of one op.
+
+    Attributes:
+        min_inputs / max_inputs: how many input steps it takes.
+        required: fields that must be set.
+        optional: fields that may be set (every other field must be absent or null).
+        result: ``"set"`` (sorted entity ids), ``"count"`` (int) or ``"bool"``.
+        topological: whether it follows relations (not allowed in ``intrinsic`` programs).
+        signature: how it reads, for error messages and prompts.
+    """
+
+    min_inputs: int
+    max_inputs: int
+    required: tuple[str, ...] = ()
+    optional: tuple[str, ...] = ()
+    result: str = "set"
+    topological: bool = False
+    signature: str = ""
+
+
+OP_SPECS: dict[Op, OpSpec] = {
+    Op.SCENE: OpSpec(0, 0, signature="scene(): every entity of the scene"),
+    Op.FILTER_CATEGORY: OpSpec(
+        1, 1, ("value",), signature="filter_category(S, value): members of category value"
+    ),
+    Op.FILTER_ATTRIBUTE: OpSpec(
+        1, 1, ("value",), signature='filter_attribute(S, "key=value"): members with that attribute'
+    ),
+    Op.FILTER_AFFORDANCE: OpSpec(
+        1, 1, ("value",), signature="filter_affordance(S, value): members affording value"
+    ),
+    Op.MATCH_TEXT: OpSpec(
+        1, 1, ("value",), ("k",), signature="match_text(S, text, k=1): the k best text matches"
+    ),
+    Op.RELATE: OpSpec(
+        2,
+        2,
+        ("relation",),
+        ("viewpoint",),
+        topological=True,
+        signature="relate(S, A, relation): members of S in that relation to some member of A",
+    ),
+    Op.RELATE_BETWEEN: OpSpec(
+        3,
+        3,
+        topological=True,
+        signature="relate_between(S, A, B): members of S between some a in A and b in B",
+    ),
+    Op.ARGMIN: OpSpec(
+        1, 2, ("metric",), ("k",), signature="argmin(S, [A], metric, k=1): the k smallest"
+    ),
+    Op.ARGMAX: OpSpec(
+        1, 2, ("metric",), ("k",), signature="argmax(S, [A], metric, k=1): the k largest"
+    ),
+    Op.UNION: OpSpec(2, MAX_SET_INPUTS, signature="union(S1, S2, ...)"),
+    Op.INTERSECT: OpSpec(2, MAX_SET_INPUTS, signature="intersect(S1, S2, ...)"),
+    Op.DIFFERENCE: OpSpec(2, 2, signature="difference(S, A): members of S not in A"),
+    Op.SUPPORT_CLOSURE: OpSpec(
+        1, 1, topological=True, signature="support_closure(S): all that rests on S, transitively"
+    ),
+    Op.FALL_IF_REMOVED: OpSpec(
+        1, 1, topological=True, signature="fall_if_removed(S): what falls when S is removed"
+    ),
+    Op.COUNT: OpSpec(1, 1, result="count", signature="count(S): the number of members"),
+    Op.EXISTS: OpSpec(1, 1, result="bool", signature="exists(S): whether S is non-empty"),
+}
+
+#: The optional fields of a step, in wire order.
+STEP_FIELDS: tuple[str, ...] = ("value", "relation", "metric", "k", "viewpoint")
+
+_Int = Annotated[int, Field(strict=True)]
+_Coord = Annotated[float, Field(strict=True, allow_inf_nan=False)]
+_Xyz = Annotated[tuple[_Coord, _Coord, _Coord], Field()]
+
+
+_VALIDATING: ContextVar[bool] = ContextVar("queries_validating", default=False)
+_T = TypeVar("_T")
+
+
+def _typed_errors(call: Callable[[], _T]) -> _T:
+    """Run a validation; at the outermost level turn pydantic's error into ours.
+
+    Nested models are validated through their ``__init__`` too, where pydantic's own error
+    must pass through unchanged so it is reported with its full location (step index).
+    """
+    if _VALIDATING.get():
+        return call()
+    token = _VALIDATING.set(True)
+    try:
+        return call()
+    except ValidationError as exc:
+        raise _from_pydantic(exc) from None
+    finally:
+        _VALIDATING.reset(token)
+
+
+class _Model(BaseModel):
+    """Frozen, closed models whose every validation error is a QueryValidationError."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    def __init__(self, **data: Any) -> None:
+        _typed_errors(lambda: super(_Model, self).__init__(**data))
+
+    @classmethod
+    def model_validate(cls, obj: Any, **kwargs: Any) -> Self:
+        return _typed_errors(lambda: super(_Model, cls).model_validate(obj, **kwargs))
+
+    @classmethod
+    def model_validate_json(cls, json_data: str | bytes | bytearray, **kwargs: Any) -> Self:
+        return _typed_errors(lambda: super(_Model, cls).model_validate_json(json_data, **kwargs))
+
+    @classmethod
+    def model_validate_strings(cls, obj: Any, **kwargs: Any) -> Self:
+        return _typed_errors(lambda: super(_Model, cls).model_validate_strings(obj, **kwargs))
+
+
+class Viewpoint(_Model):
+    """Where the observer stands for view-dependent relations (world frame, scene units).
+
+    ``eye`` is the observer's position and ``target`` the point looked at; only their
+    horizontal (x, y) components matter.
+    """
+
+    eye: _Xyz
+    target: _Xyz
+
+
+class Step(_Model):
+    """One step: ``op`` applied to earlier steps' results (``inputs``) and its parameters."""
+
+    op: Op
+    inputs: tuple[Annotated[int, Field(strict=True, ge=0)], ...] = ()
+    value: Annotated[str, Field(strict=True, max_length=MAX_VALUE_LENGTH)] | None = None
+    relation: RelationType | None = None
+    metric: Metric | None = None
+    k: Annotated[int, Field(strict=True, ge=1, le=MAX_K)] | None = None
+    viewpoint: Viewpoint | None = None
+
+    @property
+    def spec(self) -> OpSpec:
+        return OP_SPECS[self.op]
+
+    @property
+    def effective_k(self) -> int:
+        """``k``, or 1 when it is not given."""
+        return 1 if self.k is None else self.k
+
+    def to_dict(self) -> dict[str, Any]:
+        """The canonical JSON object: unset fields and empty ``inputs`` left out."""
+        out: dict[str, Any] = {"op": self.op.value}
+        if self.inputs:
+            out["inputs"] = list(self.inputs)
+        for name in STEP_FIELDS:
+            value = getattr(self, name)
+            if value is None:
+                continue
+            if isinstance(value, Viewpoint):
+                out[name] = {"eye": list(value.eye), "target": list(value.target)}
+            elif isinstance(value, StrEnum):
+                out[name] = value.value
+            else:
+                out[name] = value
+        return out
+
+
+class GraphQuery(_Model):
+    """A whole program: its reasoning level, its steps and which step is the answer."""
+
+    query_type: QueryType
+    steps: tuple[Step, ...] = Field(min_length=1, max_length=MAX_STEPS)
+    answer_step: _Int
+
+    @model_validator(mode="after")
+    def _check(self) -> Self:
+        from queries._validate import check_program
+
+        check_program(self)
+        return self
+
+    # -- ways in -------------------------------------------------------------------------
+
+    @classmethod
+    def parse(cls, program: GraphQuery | str | bytes | dict[str, Any]) -> GraphQuery:
+        """A program from an instance, its JSON text, or a dict (JSON-shaped)."""
+        if isinstance(program, GraphQuery):
+            return program
+        if isinstance(program, str | bytes | bytearray):
+            return cls.model_validate_json(program)
+        if isinstance(program, dict):
+            return cls.model_validate(program)
+        raise QueryValidationError(f"a program must be a JSON object, got {type(program).__name__}")
+
+    @classmethod
+    def from_text(cls, text: str) -> GraphQuery:
+        """Parse the text form (see :mod:`queries.text`)."""
+        from queries.text import parse_text
+
+        return parse_text(text)
+
+    # -- ways out ------------------------------------------------------------------------
+
+    def to_dict(self) -> dict[str, Any]:
+        """The canonical JSON object of the program."""
+        return {
+            "query_type": self.query_type.value,
+            "steps": [s.to_dict() for s in self.steps],
+            "answer_step": self.answer_step,
+        }
+
+    def to_json(self, *, indent: int | None = None) -> str:
+        return json.dumps(self.to_dict(), indent=indent, ensure_ascii=False)
+
+    def to_text(self) -> str:
+        """The text form (see :mod:`queries.text`); ``from_text`` reads it back exactly."""
+        from queries.text import format_text
+
+        return format_text(self)
+
+    @staticmethod
+    def json_schema() -> dict[str, Any]:
+        """The flat JSON Schema for constrained decoding (see :mod:`queries.schema`)."""
+        from queries.schema import graph_query_schema
+
+        return graph_query_schema()
+
+    @property
+    def answer(self) -> Step:
+        return self.steps[self.answer_step]
+
+    @property
+    def result_kind(self) -> str:
+        """``"set"``, ``"count"`` or ``"bool"``: what the answer step yields."""
+        return self.answer.spec.result
+
+
+def _loc_text(loc: tuple[int | str, ...]) -> str:
+    out = ""
+    for part in loc:
+        out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else str(part))
+    return out
+
+
+def _from_pydantic(exc: ValidationError) -> QueryValidationError:
+    """The first pydantic error as a QueryValidationError naming the step and the field."""
+    errors = exc.errors(include_url=False, include_input=False)
+    first = errors[0]
+    loc = tuple(first["loc"])
+    step: int | None = None
+    if len(loc) >= 2 and loc[0] == "steps" and isinstance(loc[1], int):
+        step, loc = loc[1], loc[2:]
+    message = str(first["msg"])
+    if first["type"] == "missing":
+        message = "is required"
+    elif first["type"] == "extra_forbidden":
+        message = "is not a field of a step" if step is not None else "is not a field"
+    elif first["type"] == "model_type" and not loc:
+        message = "a program must be a JSON object"
+    if len(errors) > 1:
+        message += f" (and {len(errors) - 1} more problem{'s' if len(errors) > 2 else ''})"
+    return QueryValidationError(message, step=step, field=_loc_text(loc) or None)

@@ -1,0 +1,373 @@
+"""The reference semantics of the query language, defined once for every executor.
+
+Text matching
+    * ``filter_category``: a member matches when its category equals ``value`` after
+      :func:`normalise_text` on both (Unicode whitespace runs collapsed to one space, ends
+      stripped, then ``str.casefold``). ``" Kitchen  Cabinet"`` matches ``"kitchen cabinet"``.
+    * ``filter_attribute``: ``value`` is ``"key=value"`` (split at the first ``=``); a
+      member matches when it has an attribute whose normalised key and value equal the
+      normalised halves. ``filter_affordance``: the same with key ``affordance``.
+    * ``match_text``: :func:`text_similarity` between ``value`` and each member's category
+      and caption; a member scores its best text; members scoring 0 are dropped; the ``k``
+      best are kept, ties broken by entity id.
+    The SQL and SPARQL executors apply these rules in Python to the *distinct* stored
+    categories / attribute pairs / captions of the scene (read from the database), and pass
+    the exact stored strings that match (and, for ``match_text``, each text's rank) back to
+    the database as a bound set; the database then selects the entities.
+
+Geometry (world frame, scene units, ``z`` up; see :class:`Algebra`)
+    * Scene centre: the centre of the union of all entity bounding boxes
+      (``(min(min_x) + max(max_x)) * 0.5`` per axis), over the whole scene.
+    * ``distance``: squared centroid distance ``dx*dx + dy*dy + dz*dz`` (ranking by the square
+      ranks by the distance) to the nearest member of the reference set other than the
+      entity itself; members with no such reference are dropped. Without a reference set:
+      to the scene centre.
+    * ``argmin`` / ``argmax``: sort by (metric ascending / descending, entity id ascending),
+      keep the first ``k``.
+    * View-dependent relations (:func:`view_relation`), horizontal plane only: the observer
+      looks from ``eye`` towards ``target`` (default: from the scene centre towards the anchor
+      ``a``); with ``f = target - eye`` and ``d = s - a``, ``fwd = d·f`` and
+      ``side = d·(f.y, -f.x)`` (``> 0``: to the observer's right). Each relation is a 90° sector
+      around its direction: ``right_of``: ``side > 0`` and ``side >= |fwd|``;
+      ``left_of``: ``side < 0`` and ``-side >= |fwd|``; ``behind``: ``fwd > 0`` and
+      ``fwd > |side|``; ``in_front_of``: ``fwd < 0`` and ``-fwd > |side|``. On the diagonals the
+      lateral relation wins; when ``f`` or ``d`` is zero no relation holds.
+    * ``relate_between`` (:func:`between`), horizontal plane: with ``u = b - a`` and
+      ``w = s - a``, ``s`` is between when its projection falls strictly inside the segment
+      (``0 < w·u < u·u``) and its distance from the line ``ab`` is at most
+      ``between_lateral_ratio`` times ``|ab|`` (``|w × u| <= ratio * u·u``).
+    Every formula is written once against :class:`Algebra` and evaluated on Python floats
+    (networkx), as SQL expressions, or as SPARQL expressions, with the same operations in the
+    same order, so IEEE-754 doubles give the same answers everywhere.
+
+Support
+    ``x`` rests on ``y`` when ``x supported_by y`` or ``y supports x`` is stored.
+    ``support_closure(S)``: every ``x`` with a chain of one or more such edges from ``x`` down
+    to a member of ``S`` (members of ``S`` are included only when they rest on ``S`` in turn).
+    ``fall_if_removed(S)``: the least fixpoint of "``x`` falls when it has at least one
+    supporter and all of them are removed (in ``S``) or fallen"; entities of the structural
+    categories never fall; removed entities are not reported as fallen. Entities holding each
+    other up in a support cycle stay up unless something outside the cycle removes all their
+    support. :func:`support_paths` explains each fallen entity.
+
+Stored relations
+    ``relate(S, A, r)`` keeps ``s`` when ``s r a`` or ``a inverse(r) s`` is stored for some ``a``
+    in ``A`` (so a builder may store either direction).
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+from functools import lru_cache
+from typing import Generic, TypeVar
+
+from graph_store.types import RelationType
+
+N = TypeVar("N")  # a numeric expression
+B = TypeVar("B")  # a boolean expression
+
+
+@dataclass(frozen=True, slots=True)
+class QueryConfig:
+    """Tunable parameters of the semantics (defaults as documented in this module).
+
+    Attributes:
+        structural_categories: categories that never fall (compared normalised).
+        between_lateral_ratio: how far from the line ``ab`` an entity between ``a`` and
+            ``b`` may be, as a fraction of ``|ab|`` (dimensionless).
+        affordance_key: the attribute key ``filter_affordance`` reads.
+    """
+
+    structural_categories: tuple[str, ...] = ("floor", "wall", "ceiling")
+    between_lateral_ratio: float = 0.3
+    affordance_key: str = "affordance"
+
+    def is_structural(self, category: str) -> bool:
+        return normalise_text(category) in {normalise_text(c) for c in self.structural_categories}
+
+
+DEFAULT_CONFIG = QueryConfig()
+
+
+# -- text --------------------------------------------------------------------------------
+
+
+def normalise_text(text: str) -> str:
+    """Whitespace runs collapsed to one space, ends stripped, casefolded."""
+    return " ".join(text.split()).casefold()
+
+
+def split_attribute(value: str) -> tuple[str, str] | None:
+    """``"key=value"`` as its normalised halves; ``None`` when either half is empty."""
+    key, sep, val = value.partition("=")
+    key, val = normalise_text(key), normalise_text(val)
+    if not sep or not key or not val:
+        return None
+    return key, val
+
+
+@lru_cache(maxsize=4096)
+def _trigrams(text: str) -> frozenset[str]:
+    padded = "  " + text + " "
+    return frozenset(padded[i : i + 3] for i in range(len(padded) - 2))
+
+
+def text_similarity(query: str, text: str) -> float:
+    """Similarity in ``[0, 1]``: 1 for equal normalised texts, otherwise 0.99 times the
+    Dice coefficient of their character-trigram sets (padded with two leading spaces and
+    one trailing space)."""
+    a, b = normalise_text(query), normalise_text(text)
+    if not a or not b:
+        return 0.0
+    if a == b:
+        return 1.0
+    ga, gb = _trigrams(a), _trigrams(b)
+    return 0.99 * (2.0 * len(ga & gb) / (len(ga) + len(gb)))
+
+
+def rank_texts(query: str, texts: Iterable[str]) -> dict[str, int]:
+    """Dense rank (0 = most similar) of every text with a similarity above 0."""
+    scores = {t: text_similarity(query, t) for t in set(texts)}
+    levels = sorted({s for s in scores.values() if s > 0.0}, reverse=True)
+    rank_of = {s: r for r, s in enumerate(levels)}
+    return {t: rank_of[s] for t, s in scores.items() if s > 0.0}
+
+
+def matching_categories(value: str, categories: Iterable[str]) -> list[str]:
+    """The stored categories ``filter_category(value)`` selects, sorted."""
+    wanted = normalise_text(value)
+    return sorted({c for c in categories if normalise_text(c) == wanted})
+
+
+def matching_attributes(
+    key: str, value: str, pairs: Iterable[tuple[str, str]]
+) -> list[tuple[str, str]]:
+    """The stored ``(key, value)`` pairs an attribute filter selects (``key``, ``value``
+    already normalised), sorted."""
+    return sorted(
+        {(k, v) for k, v in pairs if normalise_text(k) == key and normalise_text(v) == value}
+    )
+
+
+def attribute_filter(op: str, value: str, config: QueryConfig) -> tuple[str, str]:
+    """The normalised ``(key, value)`` a ``filter_attribute`` / ``filter_affordance`` reads."""
+    if op == "filter_affordance":
+        return normalise_text(config.affordance_key), normalise_text(value)
+    parts = split_attribute(value)
+    if parts is None:  # validated programs never get here
+        raise ValueError(f"not a key=value attribute filter: {value!r}")
+    return parts
+
+
+# -- geometry ----------------------------------------------------------------------------
+
+
+class Algebra(ABC, Generic[N, B]):
+    """The operations the geometric rules use; one subclass per executor.
+
+    Formulas call these methods in a fixed order, so every backend performs the same
+    IEEE-754 operations (``+``, ``-``, ``*``, ``abs``, comparisons) on the same doubles.
+    """
+
+    @abstractmethod
+    def const(self, value: float) -> N: ...
+    @abstractmethod
+    def add(self, a: N, b: N) -> N: ...
+    @abstractmethod
+    def sub(self, a: N, b: N) -> N: ...
+    @abstractmethod
+    def mul(self, a: N, b: N) -> N: ...
+    @abstractmethod
+    def neg(self, a: N) -> N: ...
+    @abstractmethod
+    def abs(self, a: N) -> N: ...
+    @abstractmethod
+    def lt(self, a: N, b: N) -> B: ...
+    @abstractmethod
+    def le(self, a: N, b: N) -> B: ...
+    @abstractmethod
+    def gt(self, a: N, b: N) -> B: ...
+    @abstractmethod
+    def ge(self, a: N, b: N) -> B: ...
+    @abstractmethod
+    def all(self, *conditions: B) -> B: ...
+
+
+class PyAlgebra(Algebra[float, bool]):
+    """The algebra on Python floats (the reference)."""
+
+    def const(self, value: float) -> float:
+        return float(value)
+
+    def add(self, a: float, b: float) -> float:
+        return a + b
+
+    def sub(self, a: float, b: float) -> float:
+        return a - b
+
+    def mul(self, a: float, b: float) -> float:
+        return a * b
+
+    def neg(self, a: float) -> float:
+        return -a
+
+    def abs(self, a: float) -> float:
+        return abs(a)
+
+    def lt(self, a: float, b: float) -> bool:
+        return a < b
+
+    def le(self, a: float, b: float) -> bool:
+        return a <= b
+
+    def gt(self, a: float, b: float) -> bool:
+        return a > b
+
+    def ge(self, a: float, b: float) -> bool:
+        return a >= b
+
+    def all(self, *conditions: bool) -> bool:
+        return all(conditions)
+
+
+PY = PyAlgebra()
+
+
+def centre_coordinate(alg: Algebra[N, B], lowest: N, highest: N) -> N:
+    """One axis of the scene centre from the smallest bbox min and largest bbox max."""
+    return alg.mul(alg.add(lowest, highest), alg.const(0.5))
+
+
+def squared_distance(alg: Algebra[N, B], p: tuple[N, N, N], q: tuple[N, N, N]) -> N:
+    """``dx*dx + dy*dy + dz*dz`` between two points."""
+    dx, dy, dz = alg.sub(p[0], q[0]), alg.sub(p[1], q[1]), alg.sub(p[2], q[2])
+    return alg.add(alg.add(alg.mul(dx, dx), alg.mul(dy, dy)), alg.mul(dz, dz))
+
+
+def metric_value(
+    alg: Algebra[N, B],
+    metric: str,
+    centroid: tuple[N, N, N],
+    lo: tuple[N, N, N],
+    hi: tuple[N, N, N],
+) -> N:
+    """An entity's value for a non-distance metric (``x``, ``y``, ``z``, ``height``, ``volume``)."""
+    if metric == "x":
+        return centroid[0]
+    if metric == "y":
+        return centroid[1]
+    if metric == "z":
+        return centroid[2]
+    if metric == "height":
+        return alg.sub(hi[2], lo[2])
+    if metric == "volume":
+        sx, sy, sz = alg.sub(hi[0], lo[0]), alg.sub(hi[1], lo[1]), alg.sub(hi[2], lo[2])
+        return alg.mul(alg.mul(sx, sy), sz)
+    raise ValueError(f"metric {metric!r} has no per-entity value")
+
+
+def view_relation(
+    alg: Algebra[N, B],
+    relation: RelationType,
+    s: tuple[N, N],
+    a: tuple[N, N],
+    eye: tuple[N, N],
+    target: tuple[N, N],
+) -> B:
+    """Whether ``s`` is ``relation`` of ``a`` seen from ``eye`` looking at ``target`` (x, y)."""
+    fx, fy = alg.sub(target[0], eye[0]), alg.sub(target[1], eye[1])
+    dx, dy = alg.sub(s[0], a[0]), alg.sub(s[1], a[1])
+    fwd = alg.add(alg.mul(dx, fx), alg.mul(dy, fy))
+    side = alg.sub(alg.mul(dx, fy), alg.mul(dy, fx))
+    zero = alg.const(0.0)
+    if relation is RelationType.RIGHT_OF:
+        return alg.all(alg.gt(side, zero), alg.ge(side, alg.abs(fwd)))
+    if relation is RelationType.LEFT_OF:
+        return alg.all(alg.lt(side, zero), alg.ge(alg.neg(side), alg.abs(fwd)))
+    if relation is RelationType.BEHIND:
+        return alg.all(alg.gt(fwd, zero), alg.gt(fwd, alg.abs(side)))
+    if relation is RelationType.IN_FRONT_OF:
+        return alg.all(alg.lt(fwd, zero), alg.gt(alg.neg(fwd), alg.abs(side)))
+    raise ValueError(f"{relation.value!r} is not a view-dependent relation")
+
+
+def between(alg: Algebra[N, B], s: tuple[N, N], a: tuple[N, N], b: tuple[N, N], ratio: float) -> B:
+    """Whether ``s`` lies between ``a`` and ``b`` in the horizontal plane (see module doc)."""
+    ux, uy = alg.sub(b[0], a[0]), alg.sub(b[1], a[1])
+    wx, wy = alg.sub(s[0], a[0]), alg.sub(s[1], a[1])
+    dot = alg.add(alg.mul(wx, ux), alg.mul(wy, uy))
+    l2 = alg.add(alg.mul(ux, ux), alg.mul(uy, uy))
+    cross = alg.sub(alg.mul(wx, uy), alg.mul(wy, ux))
+    zero = alg.const(0.0)
+    return alg.all(
+        alg.gt(dot, zero), alg.lt(dot, l2), alg.le(alg.abs(cross), alg.mul(alg.const(ratio), l2))
+    )
+
+
+# -- support -----------------------------------------------------------------------------
+
+
+def fall_rounds(
+    removed: Iterable[int],
+    supporters: Mapping[int, Iterable[int]],
+    structural: Iterable[int],
+) -> dict[int, int]:
+    """The reference fixpoint: the round (1, 2, ...) in which each entity falls.
+
+    ``supporters[x]`` are the entities ``x`` rests on; ``structural`` never fall.
+    """
+    known = set(removed)
+    never = set(structural)
+    support = {x: frozenset(ys) for x, ys in supporters.items() if ys}
+    rounds: dict[int, int] = {}
+    current = 0
+    while True:
+        current += 1
+        new = [x for x, ys in support.items() if x not in known and x not in never and ys <= known]
+        if not new:
+            return rounds
+        for x in new:
+            rounds[x] = current
+        known.update(new)
+
+
+@dataclass(frozen=True, slots=True, order=True)
+class SupportPath:
+    """Why one entity falls in a ``fall_if_removed`` step.
+
+    Attributes:
+        step: index of the ``fall_if_removed`` step.
+        entity: the fallen entity's id.
+        path: ``(entity, supporter, ..., removed)``: each id rests on the next (a stored
+            ``supported_by`` / ``supports`` edge); the last is a removed entity. At each hop
+            the supporter that fell earliest is taken (a removed one first), ties by id.
+    """
+
+    step: int
+    entity: int
+    path: tuple[int, ...]
+
+
+def support_paths(
+    step: int,
+    removed: Iterable[int],
+    rounds: Mapping[int, int],
+    supporters: Mapping[int, Iterable[int]],
+) -> tuple[SupportPath, ...]:
+    """One :class:`SupportPath` per fallen entity, sorted by entity id."""
+    removed_set = set(removed)
+
+    def order(y: int) -> tuple[int, int]:
+        return (0 if y in removed_set else rounds[y], y)
+
+    out = []
+    for x in sorted(rounds):
+        path = [x]
+        cur = x
+        while cur not in removed_set:
+            cur = min(supporters[cur], key=order)
+            path.append(cur)
+        out.append(SupportPath(step, x, tuple(path)))
+    return tuple(out)

@@ -1,0 +1,202 @@
+"""The SQL executor: a program compiled to SQLAlchemy Core over the store's tables.
+
+Each step is one CTE (``s0``, ``s1``, ...) of a single ``WITH`` statement whose final
+``SELECT`` returns every step's rows (``UNION ALL`` of ``(step, id)``), so the database
+computes every intermediate set (the ids of the whole scene, when a step is ``scene()``,
+come from one plain ``SELECT`` beside it); ``support_closure`` is a recursive CTE. A CTE
+may list an id twice (``relate`` unions both edge directions without de-duplicating);
+every reader treats CTEs as sets (``IN``, ``count(DISTINCT)``, a Python set at the end).
+Two things run as
+several statements, combined in Python with the shared rules of :mod:`queries.semantics`:
+the distinct strings that text filters match against (read first, matched in Python, bound
+back), and ``fall_if_removed``, an iterative fixpoint with one SQL statement per round
+(and one to read the supporters that explain each fallen entity); its result then enters the
+main statement as an inline id list. Works on SQLite and PostgreSQL.
+
+PostgreSQL, unlike IEEE-754, raises on floating-point underflow (a product below about
+1e-308, i.e. coordinates closer than about 1e-154 scene units); such a run, like any other
+database failure, raises :class:`~queries.QueryExecutionError`.
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from operator import itemgetter
+from typing import Any
+
+import sqlalchemy as sa
+from sqlalchemy.engine import Connection, Engine
+
+from graph_store import models as m
+from graph_store.errors import SceneNotFound
+from queries._base import Executor
+from queries._sql_steps import E, SqlSteps, ids_literal
+from queries.errors import QueryExecutionError
+from queries.model import GraphQuery, Op, Step
+from queries.result import QueryResult, StepValue
+from queries.semantics import DEFAULT_CONFIG, QueryConfig, SupportPath, support_paths
+
+
+class SqlExecutor(Executor):
+    """Runs programs with SQL on a store database (SQLite or PostgreSQL).
+
+    Args:
+        engine: a SQLAlchemy engine on a store (``open_store(url).engine``).
+        scene_id: the stored scene to query; :class:`SceneNotFound` when absent.
+    """
+
+    name = "sql"
+
+    def __init__(self, engine: Engine, scene_id: str, config: QueryConfig = DEFAULT_CONFIG):
+        super().__init__(scene_id, config)
+        self.engine = engine
+        with engine.connect() as conn:
+            found = conn.execute(sa.select(m.scenes.c.id).where(m.scenes.c.id == scene_id)).first()
+        if found is None:
+            raise SceneNotFound(f"no scene {scene_id!r} in the store at {engine.url!r}")
+
+    def _execute(self, program: GraphQuery) -> QueryResult:
+        try:
+            with self.engine.connect() as conn, conn.begin():
+                return _SqlRun(conn, self.scene_id, self.config).run(program)
+        except sa.exc.DBAPIError as exc:
+            reason = str(exc.orig).strip().splitlines()[0] if exc.orig else str(exc)
+            raise QueryExecutionError(
+                f"the database could not run the program on scene {self.scene_id!r}: {reason}"
+            ) from exc
+
+
+class _SqlRun:
+    def __init__(self, conn: Connection, scene_id: str, config: QueryConfig) -> None:
+        self.conn = conn
+        self.scene_id = scene_id
+        self.config = config
+        self.c = SqlSteps(conn, scene_id, config)
+        self.ctes: list[Any] = []
+        self.paths: list[SupportPath] = []
+
+    def run(self, program: GraphQuery) -> QueryResult:
+        for i, step in enumerate(program.steps):
+            self.ctes.append(self._compile(i, step))
+        values = self._fetch(program)
+        return QueryResult(
+            scene_id=self.scene_id,
+            program=program,
+            answer=values[program.answer_step],
+            steps=values,
+            support_paths=tuple(sorted(self.paths)),
+            executor=SqlExecutor.name,
+        )
+
+    def _compile(self, i: int, step: Step) -> Any:
+        c, name = self.c, f"s{i}"
+        src = [(j, self.ctes[j]) for j in step.inputs]
+        op = step.op
+        if op is Op.SCENE:
+            c.whole.add(i)
+            return c.scene().cte(name)
+        if op is Op.FILTER_CATEGORY:
+            return c.filter_category(step, src[0]).cte(name)
+        if op in (Op.FILTER_ATTRIBUTE, Op.FILTER_AFFORDANCE):
+            return c.filter_attribute(step, src[0]).cte(name)
+        if op is Op.MATCH_TEXT:
+            return c.match_text(step, src[0]).cte(name)
+        if op is Op.RELATE:
+            return c.relate(step, src[0], src[1]).cte(name)
+        if op is Op.RELATE_BETWEEN:
+            return c.relate_between(step, *src).cte(name)
+        if op in (Op.ARGMIN, Op.ARGMAX):
+            return c.rank(step, *src).cte(name)
+        if op in (Op.UNION, Op.INTERSECT, Op.DIFFERENCE):
+            return c.set_op(op, src).cte(name)
+        if op is Op.SUPPORT_CLOSURE:
+            return c.support_closure(name, src[0])
+        if op is Op.FALL_IF_REMOVED:
+            fallen = self._fall(i, src[0][1])
+            return (
+                sa.select(E.c.id)
+                .where(E.c.scene_id == self.scene_id, E.c.id.in_(ids_literal(fallen, f"fallen{i}")))
+                .cte(name)
+            )
+        # count / exists: computed in the final statement from their input's CTE
+        return src[0][1]
+
+    def _fall(self, i: int, removed_cte: Any) -> set[int]:
+        """The fixpoint, one statement per round; records the support paths.
+
+        Round ``r`` looks only at what rests on the entities added in round ``r - 1``
+        (an entity whose supporters were all known earlier fell earlier), keeps those not
+        known yet, not structural, and with no supporter outside the known set.
+        """
+        removed = {r[0] for r in raw_rows(self.conn, sa.select(removed_cte.c.id))}
+        structural = [cat for cat in self.c.categories() if self.config.is_structural(cat)]
+        rounds: dict[int, int] = {}
+        known, frontier = set(removed), set(removed)
+        current = 0
+        while frontier:
+            current += 1
+            known_ids = ids_literal(known, "known")
+            cand = self.c.resting_on(ids_literal(frontier, "frontier")).subquery("cand")
+            query = (
+                sa.select(cand.c.id)
+                .join(E, sa.and_(E.c.scene_id == self.scene_id, E.c.id == cand.c.id))
+                .where(cand.c.id.not_in(known_ids), E.c.category.not_in(structural))
+                .where(~self.c.held_outside(cand.c.id, known_ids))
+            )
+            frontier = {r[0] for r in raw_rows(self.conn, query)}
+            rounds.update((x, current) for x in frontier)
+            known |= frontier
+        if rounds:
+            supporters: dict[int, list[int]] = defaultdict(list)
+            edges = self.c.supporter_edges(ids_literal(set(rounds), "fallen"))
+            for upper, lower in raw_rows(self.conn, edges):
+                supporters[upper].append(lower)
+            self.paths.extend(support_paths(i, removed, rounds, supporters))
+        return set(rounds)
+
+    def _fetch(self, program: GraphQuery) -> tuple[StepValue, ...]:
+        """Every step's value: one statement for the steps that are not the whole scene
+        (their ``(step, id)`` rows), one for the scene's ids when a step is the scene."""
+        parts = []
+        for i, (step, cte) in enumerate(zip(program.steps, self.ctes, strict=True)):
+            tag = sa.literal(i, sa.Integer()).label("step")
+            if step.op is Op.SCENE:
+                continue
+            if step.op is Op.COUNT:
+                count = sa.func.count(sa.distinct(cte.c.id)).label("id")
+                parts.append(sa.select(tag, count))
+            elif step.op is Op.EXISTS:
+                flag = sa.case((sa.exists(sa.select(cte.c.id)), 1), else_=0)
+                parts.append(sa.select(tag, flag.label("id")))
+            else:
+                parts.append(sa.select(tag, cte.c.id.label("id")))
+        sets: dict[int, set[int]] = defaultdict(set)
+        if parts:
+            for step_index, value in raw_rows(self.conn, sa.union_all(*parts)):
+                sets[step_index].add(value)
+        scene: tuple[int, ...] = ()
+        if self.c.whole:
+            rows = raw_rows(self.conn, self.c.scene().order_by(E.c.id))
+            scene = tuple(map(itemgetter(0), rows))
+        out: list[StepValue] = []
+        for i, step in enumerate(program.steps):
+            if step.op is Op.SCENE:
+                out.append(scene)
+            elif step.op is Op.COUNT:
+                out.append(int(next(iter(sets[i]))))
+            elif step.op is Op.EXISTS:
+                out.append(bool(next(iter(sets[i]))))
+            else:
+                out.append(tuple(sorted(sets[i])))
+        return tuple(out)
+
+
+def raw_rows(conn: Connection, statement: Any) -> list[Any]:
+    """All rows of ``statement`` as the driver returns them (integers and strings need no
+    conversion, and skipping SQLAlchemy's per-row processing is several times faster)."""
+    result = conn.execute(statement)
+    try:
+        rows: list[Any] = list(result.cursor.fetchall())
+    finally:
+        result.close()
+    return rows
