@@ -36,7 +36,10 @@ if TYPE_CHECKING:
     import numpy as np
     import numpy.typing as npt
 
+    from causalsplat.eval.reasoning import EvalReport
+    from causalsplat.reason import Answer, Reasoner, SceneContext
     from graph_store.rdf import RdfView, SparqlResult
+    from queries import GraphQuery, QueryResult
 
 DEFAULT_URL = "sqlite:///causalsplat.db"
 RdfFormat = Literal["turtle", "ntriples", "jsonld"]
@@ -261,6 +264,60 @@ class Scene:
     ) -> str | None:
         """Export this scene as RDF (see :meth:`Store.export_rdf`)."""
         return self.store.export_rdf(path, scene_ids=[self.id], format=format, evidence=evidence)
+
+    # -- reasoning ---------------------------------------------------------------------
+
+    def ask(self, text: str, *, reasoner: str | Reasoner = "offline", **options: Any) -> Answer:
+        """Answer an instruction with a reasoner (``"offline"``, ``"vlm"`` or an instance).
+
+        ``options`` go to the reasoner (``embeddings=True`` for the offline one; ``config``,
+        ``record``, ``replay``, ``fallback`` for the VLM one). The answer carries the
+        program, its result, the entity ids (``.entity_ids``, ``.external_ids``), a
+        per-Gaussian mask when the scene stores labels, and an explanation. Raises
+        ``InstructionError`` when the offline reasoner finds nothing in the instruction
+        that the scene holds.
+        """
+        return self._reasoner(reasoner, options).answer(text, self._reasoning_context())
+
+    def run(
+        self, program: GraphQuery | str | bytes | dict[str, Any], *, executor: str = "networkx"
+    ) -> QueryResult:
+        """Run a structured program (a ``GraphQuery``, its JSON or its dict) on this scene
+        with the ``networkx`` (in memory), ``sql`` or ``sparql`` executor."""
+        from queries import run_program
+
+        source = self.graph if executor == "networkx" else self.store.graph_store
+        return run_program(source, self.id, program, executor=executor)
+
+    def evaluate(
+        self, queries_file: str | Path, *, reasoner: str | Reasoner = "offline", **options: Any
+    ) -> EvalReport:
+        """Accuracy, 3D mIoU and F1 of a reasoner over a queries file (DESIGN §9), overall
+        and per reasoning type (the numbers of ``causalsplat eval``)."""
+        from causalsplat.eval.reasoning import evaluate_queries, read_queries
+
+        backend = self._reasoner(reasoner, options)
+        queries = read_queries(queries_file)
+        return evaluate_queries(self._reasoning_context(), queries, backend)
+
+    def _reasoning_context(self) -> SceneContext:
+        from causalsplat.reason import SceneContext
+
+        ctx: SceneContext | None = getattr(self, "_reason_ctx", None)
+        if ctx is None or ctx.graph is not self.graph:
+            ctx = SceneContext(self.graph, labels=self.gaussian_labels)
+            self._reason_ctx = ctx
+        return ctx
+
+    def _reasoner(self, reasoner: str | Reasoner, options: dict[str, Any]) -> Reasoner:
+        from causalsplat.reason import make_reasoner
+
+        if not isinstance(reasoner, str) or options:
+            return make_reasoner(reasoner, **options)
+        cache: dict[str, Reasoner] = self.__dict__.setdefault("_reasoners", {})
+        if reasoner not in cache:
+            cache[reasoner] = make_reasoner(reasoner)
+        return cache[reasoner]
 
 
 def _write_atomic(path: Path, text: str) -> None:

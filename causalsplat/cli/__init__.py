@@ -15,5 +15,6 @@ from causalsplat.cli import _bench_cmds  # noqa: F401  isort: skip
 from causalsplat.cli import _demo_cmd  # noqa: F401  isort: skip
 from causalsplat.cli import _scene_cmds  # noqa: F401  isort: skip
 from causalsplat.cli import _query_cmds  # noqa: F401  isort: skip
+from causalsplat.cli import _reason_cmds  # noqa: F401  isort: skip
 
 __all__ = ["cli", "main"]

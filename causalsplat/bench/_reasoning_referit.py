@@ -1,0 +1,189 @@
+"""ReferIt3D / ScanRefer evaluation with ground-truth objects (the ReferIt3D setting).
+
+Reads ``../shared/data/referit3d_scannet_objects`` (see its ``SOURCE.md``; never copied
+into the repository). For each scan an objects document is made from its object table
+(id = ScanNet object id, label, AABB centre and size; no points) and ingested into a
+store exactly as ``causalsplat ingest-objects`` does, so the graph has our edges. Each
+utterance is asked with the reasoner; ReferIt3D counts it correct when the answer is the
+target object alone, ScanRefer scores the box IoU of the answer against the target's box.
+
+Row groups: Sr3D by ``reference_type`` (allocentric rows: ``left``, ``right``, ``front``,
+``back``), Nr3D easy (at most one distractor of the target's class) / hard and view
+dependent / independent (ReferIt3D's word list), ScanRefer by ``unique`` / ``multiple``
+(whether the target's class is unique in the scan).
+"""
+
+from __future__ import annotations
+
+import ast
+import csv
+import json
+import time
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from causalsplat.eval.reasoning import box_iou, referit_correct
+from causalsplat.reason.context import SceneContext
+from causalsplat.reason.errors import ReasonError
+from causalsplat.reason.reasoner import Reasoner
+from queries.errors import QueryError
+
+DATA = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "referit3d_scannet_objects"
+ALLOCENTRIC = ("left", "right", "front", "back")
+#: ReferIt3D's view-dependent words (an utterance using one is view dependent).
+VIEW_DEPENDENT_WORDS = frozenset({"facing", "looking", "front", "behind", "back", "right",
+                                  "left", "leftmost", "rightmost", "across"})  # fmt: skip
+
+
+@dataclass(frozen=True, slots=True)
+class Row:
+    """One utterance with its target object (ScanNet object id) and its groups."""
+
+    dataset: str
+    scan: str
+    text: str
+    target: int
+    groups: tuple[str, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class RowOutcome:
+    row: Row
+    predicted: tuple[int, ...]
+    correct: bool
+    box_iou: float
+    error: str | None
+    seconds: float
+
+
+def objects_document(scan: str, root: Path = DATA) -> dict[str, Any]:
+    """The objects document (DESIGN §9) of one scan's object table."""
+    path = root / "objects_info" / f"objects_info_{scan}.json"
+    table = json.loads(path.read_text(encoding="utf-8"))
+    objects = []
+    for o in table:
+        lo, hi = o["extension"][:3], o["extension"][3:]
+        obj: dict[str, Any] = {
+            "id": int(o["id"]),
+            "label": str(o["label"]),
+            "center": [(a + b) / 2 for a, b in zip(lo, hi, strict=True)],
+            "size": [b - a for a, b in zip(lo, hi, strict=True)],
+        }
+        objects.append(obj)
+    return {"scene_id": scan, "units": "m", "up": "z", "objects": objects}
+
+
+class ScanGraphs:
+    """Scans ingested into one store (built on first use), as reasoner contexts."""
+
+    def __init__(self, url: str, root: Path = DATA) -> None:
+        from causalsplat.api import open_store
+
+        self.store = open_store(url)
+        self.root = root
+        self._contexts: dict[str, SceneContext] = {}
+        self.ingest_s = 0.0
+
+    def context(self, scan: str) -> SceneContext:
+        ctx = self._contexts.get(scan)
+        if ctx is None:
+            from causalsplat.objects import objects_to_scene_graph, parse_objects
+
+            start = time.perf_counter()
+            doc = objects_document(scan, self.root)
+            graph = objects_to_scene_graph(parse_objects(doc, source=scan))
+            self.store.save_scene(graph, if_exists="replace")
+            self.ingest_s += time.perf_counter() - start
+            ctx = self._contexts[scan] = SceneContext(self.store.graph_store.load_scene(scan))
+        return ctx
+
+    def close(self) -> None:
+        self.store.close()
+
+
+def _csv(path: Path) -> list[dict[str, str]]:
+    with path.open(encoding="utf-8", newline="") as handle:
+        return list(csv.DictReader(handle))
+
+
+def sr3d_rows(split: str, kinds: Sequence[str], root: Path = DATA) -> list[Row]:
+    """Rows of ``sr3d_<split>_<kind>.csv`` (kinds: support, vertical, horizontal, between,
+    allocentric), grouped by reference type."""
+    rows = []
+    for kind in kinds:
+        path = root / "referit3d" / f"sr3d_{split}_{kind}.csv"
+        if not path.exists():
+            continue
+        for r in _csv(path):
+            ref = r["reference_type"]
+            group = "allocentric" if ref in ALLOCENTRIC else "egocentric"
+            rows.append(Row("sr3d", r["scan_id"], r["utterance"], int(r["target_id"]),
+                            (ref, group)))  # fmt: skip
+    return rows
+
+
+def nr3d_rows(name: str, root: Path = DATA) -> list[Row]:
+    """Rows of ``nr3d_<name>.csv``: easy/hard from the stimulus id (hard: more than two
+    objects of the target's class), view-dependent from ReferIt3D's word list."""
+    rows = []
+    for r in _csv(root / "referit3d" / f"nr3d_{name}.csv"):
+        n_same = int(r["stimulus_id"].split("-")[2])
+        tokens = ast.literal_eval(r["tokens"]) if r.get("tokens") else r["utterance"].split()
+        view = "view-dependent" if VIEW_DEPENDENT_WORDS & set(tokens) else "view-independent"
+        groups = ("hard" if n_same > 2 else "easy", view)
+        rows.append(Row("nr3d", r["scan_id"], r["utterance"], int(r["target_id"]), groups))
+    return rows
+
+
+def scanrefer_rows(name: str, root: Path = DATA) -> list[Row]:
+    """ScanRefer descriptions of ``ScanRefer_filtered_<name>.json``; unique/multiple from
+    the scan's object table."""
+    records = json.loads((root / "scanrefer" / f"ScanRefer_filtered_{name}.json").read_text())
+    labels: dict[str, dict[int, str]] = {}
+    rows = []
+    for rec in records:
+        scan = rec["scene_id"]
+        if scan not in labels:
+            table = json.loads((root / "objects_info" / f"objects_info_{scan}.json").read_text())
+            labels[scan] = {int(o["id"]): o["label"] for o in table}
+        target = int(rec["object_id"])
+        same = sum(1 for lab in labels[scan].values() if lab == labels[scan].get(target))
+        rows.append(Row("scanrefer", scan, rec["description"], target,
+                        ("unique" if same == 1 else "multiple",)))  # fmt: skip
+    return rows
+
+
+def evaluate_rows(rows: Iterable[Row], reasoner: Reasoner, graphs: ScanGraphs) -> list[RowOutcome]:
+    """Ask every row; errors count as wrong answers."""
+    out = []
+    for row in rows:
+        ctx = graphs.context(row.scan)
+        start = time.perf_counter()
+        try:
+            answer = reasoner.answer(row.text, ctx)
+            predicted, error = answer.entity_ids, None
+        except (ReasonError, QueryError) as exc:
+            predicted, error = (), str(exc)
+        seconds = time.perf_counter() - start
+        iou = 0.0
+        if len(predicted) == 1 and row.target in ctx.by_id:
+            p, t = ctx.by_id[predicted[0]], ctx.by_id[row.target]
+            iou = box_iou(p.bbox_min, p.bbox_max, t.bbox_min, t.bbox_max)
+        out.append(RowOutcome(row, tuple(predicted), referit_correct(predicted, row.target), iou,
+                              error, seconds))  # fmt: skip
+    return out
+
+
+def accuracy(outcomes: Sequence[RowOutcome], group: str | None = None) -> tuple[int, float]:
+    """(n, accuracy) over the outcomes of one group (all when ``None``)."""
+    chosen = [o for o in outcomes if group is None or group in o.row.groups]
+    if not chosen:
+        return 0, 0.0
+    return len(chosen), sum(o.correct for o in chosen) / len(chosen)
+
+
+def acc_at(outcomes: Sequence[RowOutcome], k: float, group: str | None = None) -> float:
+    chosen = [o for o in outcomes if group is None or group in o.row.groups]
+    return sum(o.box_iou >= k for o in chosen) / len(chosen) if chosen else 0.0

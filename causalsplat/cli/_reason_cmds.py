@@ -1,0 +1,155 @@
+"""Reasoning commands: ``ask`` (one instruction) and ``eval`` (a queries file)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import click
+
+from causalsplat.cli._app import cli, db_option, echo_json, json_option
+
+_REASONERS = ("offline", "vlm")
+
+
+def _options(
+    reasoner: str,
+    embeddings: bool,
+    base_url: str | None,
+    model: str | None,
+    timeout: float | None,
+    record: Path | None,
+    replay: Path | None,
+) -> dict[str, Any]:
+    if reasoner == "offline":
+        if record or replay or base_url or model:
+            raise click.UsageError("--base-url/--model/--record/--replay need --reasoner vlm")
+        return {"embeddings": True} if embeddings else {}
+    from causalsplat.openai_compat import VLMConfig
+
+    config = VLMConfig.from_env(base_url=base_url, model=model, timeout_s=timeout)
+    out: dict[str, Any] = {"config": config, "record": record, "replay": replay}
+    return {k: v for k, v in out.items() if v is not None}
+
+
+def _reasoner_options(func: Any) -> Any:
+    options = [
+        click.option("--scene", "scene_id", required=True, help="Id of the stored scene."),
+        click.option(
+            "--reasoner",
+            type=click.Choice(_REASONERS),
+            default="offline",
+            show_default=True,
+            help="offline: deterministic rules; vlm: an OpenAI-compatible server.",
+        ),
+        click.option(
+            "--embeddings",
+            is_flag=True,
+            help="Offline reasoner: also use sentence embeddings (needs the embed extra).",
+        ),
+        click.option("--base-url", help="VLM server API root ($CAUSALSPLAT_VLM_BASE_URL)."),
+        click.option("--model", help="VLM model name ($CAUSALSPLAT_VLM_MODEL)."),
+        click.option("--timeout", type=float, help="VLM reply timeout in seconds (60)."),
+        click.option(
+            "--record",
+            type=click.Path(dir_okay=False, path_type=Path),
+            help="Append every VLM exchange to this JSONL file.",
+        ),
+        click.option(
+            "--replay",
+            type=click.Path(exists=True, dir_okay=False, path_type=Path),
+            help="Answer VLM requests from this JSONL recording (no network).",
+        ),
+        db_option,
+        json_option,
+    ]
+    for option in reversed(options):
+        func = option(func)
+    return func
+
+
+@cli.command("ask")
+@click.argument("text")
+@_reasoner_options
+def ask(
+    text: str,
+    scene_id: str,
+    reasoner: str,
+    embeddings: bool,
+    base_url: str | None,
+    model: str | None,
+    timeout: float | None,
+    record: Path | None,
+    replay: Path | None,
+    db_url: str,
+    as_json: bool,
+) -> None:
+    """Answer an instruction about a stored scene (offline rules or a VLM).
+
+    Prints the answer's entities and an explanation; --json prints
+    {"query", "program", "answer", "entities", "explanation", "reasoner", ...}.
+    """
+    from causalsplat.api import open_store
+    from causalsplat.reason import entity_documents
+
+    options = _options(reasoner, embeddings, base_url, model, timeout, record, replay)
+    with open_store(db_url, create=False) as store:
+        scene = store.scene(scene_id)
+        answer = scene.ask(text, reasoner=reasoner, **options)
+        entities = entity_documents(answer, {e.id: e for e in scene.entities})
+    if as_json:
+        echo_json(answer.to_dict(entities=entities))
+        return
+    how = answer.reasoner + (f" (fallback from {answer.requested})" if answer.fell_back else "")
+    click.echo(f"{answer.query_type} query, answered by {how}")
+    if answer.value is not None:
+        click.echo(f"answer: {answer.value}")
+    if not entities:
+        click.echo("no entity")
+    for e in entities:
+        click.echo(f"  {e['id']:>5}  {e['category']:<24} ext={e['external_id']}")
+    click.echo(answer.explanation)
+
+
+@cli.command("eval")
+@click.argument("queries_file", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@_reasoner_options
+def evaluate(
+    queries_file: Path,
+    scene_id: str,
+    reasoner: str,
+    embeddings: bool,
+    base_url: str | None,
+    model: str | None,
+    timeout: float | None,
+    record: Path | None,
+    replay: Path | None,
+    db_url: str,
+    as_json: bool,
+) -> None:
+    """Accuracy and 3D mIoU of a reasoner over a queries file, per reasoning type.
+
+    --json prints {"n", "accuracy", "miou", "by_type": {type: {"n", "accuracy", "miou"}},
+    "per_query": [...]}.
+    """
+    from causalsplat.api import open_store
+
+    options = _options(reasoner, embeddings, base_url, model, timeout, record, replay)
+    with open_store(db_url, create=False) as store:
+        report = store.scene(scene_id).evaluate(queries_file, reasoner=reasoner, **options)
+    if as_json:
+        echo_json(report.to_dict())
+        return
+    click.echo(
+        f"scene {report.scene_id}, reasoner {report.reasoner}, IoU on {report.iou_basis}:"
+        f" {report.n} queries, accuracy {report.accuracy:.3f}, mIoU {report.miou:.3f}"
+    )
+    for qtype, score in report.by_type.items():
+        click.echo(
+            f"  {qtype:<15} n={score.n:<4} accuracy {score.accuracy:.3f}  mIoU {score.miou:.3f}"
+            f"  F1 {score.f1:.3f}"
+        )
+    wrong = [o for o in report.per_query if not o.correct]
+    for o in wrong:
+        why = o.error or f"got {list(o.predicted)}, expected {list(o.targets)}"
+        click.echo(f"  wrong {o.id} ({o.type}): {o.text!r}: {why}")

@@ -1,0 +1,1 @@
+"""Evaluation: metrics and protocols for reasoning over stored scenes."""

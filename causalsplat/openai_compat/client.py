@@ -1,0 +1,261 @@
+"""A small client for OpenAI-compatible chat-completions servers, with record and replay.
+
+Any server that speaks the chat-completions API works (vLLM, SGLang, Ollama, llama.cpp,
+LM Studio, hosted APIs): :class:`VLMConfig` names its base URL, the model and the key,
+from arguments or the environment (``CAUSALSPLAT_VLM_BASE_URL``, ``CAUSALSPLAT_VLM_MODEL``,
+``CAUSALSPLAT_VLM_API_KEY``). Requests go through the ``openai`` package (the ``vlm``
+extra) with no automatic retries and a timeout; every failure becomes a typed
+:class:`~causalsplat.openai_compat.errors.VLMError`.
+
+Record and replay: with ``record=PATH`` every exchange is appended to a JSONL file, one
+object per line, ``{"key", "request", "reply"}`` or ``{"key", "request", "error"}``, where
+``key`` is the SHA-256 of the canonical JSON of the request without the model name
+(messages, response format, sampling settings; never the API key), so a recording replays
+whatever model name is configured. With ``replay=PATH`` requests are answered from
+such a file, in recorded order for repeated requests, without the network (and without
+the ``openai`` package): a VLM evaluation re-runs deterministically offline.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from collections import defaultdict, deque
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+from causalsplat.openai_compat.errors import (
+    ReplayMissError,
+    VLMConfigError,
+    VLMError,
+    VLMReplyError,
+    VLMTimeoutError,
+    VLMTransportError,
+)
+
+ENV_BASE_URL = "CAUSALSPLAT_VLM_BASE_URL"
+ENV_MODEL = "CAUSALSPLAT_VLM_MODEL"
+ENV_API_KEY = "CAUSALSPLAT_VLM_API_KEY"
+INSTALL_HINT = "pip install 'causalsplat[vlm]' (the openai package)"
+Message = dict[str, Any]
+
+
+@dataclass(frozen=True, slots=True)
+class VLMConfig:
+    """Where the server is and how to ask it.
+
+    Attributes:
+        base_url: the server's OpenAI-compatible API root (``http://host:8000/v1``).
+        model: the model name the server knows.
+        api_key: the key (servers that need none accept any string).
+        timeout_s: seconds to wait for one reply.
+        max_tokens: most tokens of a reply.
+        temperature: sampling temperature (0: as deterministic as the server allows).
+        seed: sampling seed sent to servers that honour one.
+    """
+
+    base_url: str | None = None
+    model: str | None = None
+    api_key: str | None = None
+    timeout_s: float = 60.0
+    max_tokens: int = 1024
+    temperature: float = 0.0
+    seed: int | None = 0
+
+    @classmethod
+    def from_env(cls, **overrides: Any) -> VLMConfig:
+        """Settings from the environment, then ``overrides`` (``None`` values ignored)."""
+        base = cls(
+            base_url=os.environ.get(ENV_BASE_URL) or None,
+            model=os.environ.get(ENV_MODEL) or None,
+            api_key=os.environ.get(ENV_API_KEY) or None,
+        )
+        return replace(base, **{k: v for k, v in overrides.items() if v is not None})
+
+
+@dataclass(frozen=True, slots=True)
+class ChatReply:
+    """One reply: its text, why generation stopped, and which model answered."""
+
+    content: str
+    finish_reason: str | None
+    model: str | None = None
+
+
+def request_key(request: dict[str, Any]) -> str:
+    """SHA-256 of the canonical JSON of a request less its model (the record/replay key)."""
+    keyed = {k: v for k, v in request.items() if k != "model"}
+    text = json.dumps(keyed, sort_keys=True, separators=(",", ":"), ensure_ascii=False)
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+class ChatClient:
+    """Chat completions against one server (module docstring).
+
+    Args:
+        config: the server settings (default: from the environment).
+        record: append every exchange to this JSONL file.
+        replay: answer from this JSONL file instead of the network.
+    """
+
+    def __init__(
+        self,
+        config: VLMConfig | None = None,
+        *,
+        record: str | Path | None = None,
+        replay: str | Path | None = None,
+    ) -> None:
+        self.config = config or VLMConfig.from_env()
+        self.record_path = Path(record) if record is not None else None
+        self._replay: dict[str, deque[dict[str, Any]]] | None = None
+        self._openai: Any = None
+        if replay is not None:
+            self._replay = _read_recording(Path(replay))
+            return
+        if not self.config.base_url:
+            raise VLMConfigError(f"no VLM server: set {ENV_BASE_URL} or pass a base URL")
+        if not self.config.model:
+            raise VLMConfigError(f"no VLM model: set {ENV_MODEL} or pass a model name")
+        try:
+            import openai
+        except ImportError as exc:
+            raise VLMConfigError(f"the VLM backend needs the vlm extra: {INSTALL_HINT}") from exc
+        self._openai = openai.OpenAI(
+            base_url=self.config.base_url,
+            api_key=self.config.api_key or "not-needed",
+            timeout=self.config.timeout_s,
+            max_retries=0,
+        )
+
+    def __repr__(self) -> str:
+        mode = "replay" if self._replay is not None else self.config.base_url
+        return f"ChatClient({mode!r}, model={self.config.model!r})"
+
+    def request(
+        self, messages: list[Message], response_format: dict[str, Any] | None
+    ) -> dict[str, Any]:
+        """The request document (also the record/replay key's input)."""
+        out: dict[str, Any] = {
+            "model": self.config.model,
+            "messages": messages,
+            "temperature": self.config.temperature,
+            "max_tokens": self.config.max_tokens,
+        }
+        if self.config.seed is not None:
+            out["seed"] = self.config.seed
+        if response_format is not None:
+            out["response_format"] = response_format
+        return out
+
+    def complete(
+        self, messages: list[Message], *, response_format: dict[str, Any] | None = None
+    ) -> ChatReply:
+        """One chat completion. Raises :class:`VLMTransportError` (HTTP error, no
+        connection), :class:`VLMTimeoutError`, :class:`VLMReplyError` (no choices) or, in
+        replay mode, :class:`ReplayMissError`."""
+        request = self.request(messages, response_format)
+        key = request_key(request)
+        if self._replay is not None:
+            return _replayed(self._replay, key)
+        try:
+            reply = self._call(request)
+        except VLMError as exc:
+            self._record(key, request, error=exc)
+            raise
+        self._record(key, request, reply=reply)
+        return reply
+
+    def _call(self, request: dict[str, Any]) -> ChatReply:
+        openai = __import__("openai")
+        try:
+            response = self._openai.chat.completions.create(**request)
+        except openai.APITimeoutError as exc:
+            raise VLMTimeoutError(
+                f"the VLM server at {self.config.base_url} did not answer within"
+                f" {self.config.timeout_s:g} s"
+            ) from exc
+        except openai.APIStatusError as exc:
+            raise VLMTransportError(
+                f"the VLM server at {self.config.base_url} answered HTTP {exc.status_code}:"
+                f" {str(exc)[:200]}",
+                status=exc.status_code,
+            ) from exc
+        except openai.APIError as exc:  # connection errors and malformed responses
+            raise VLMTransportError(
+                f"the VLM server at {self.config.base_url} failed: {exc}"
+            ) from exc
+        choices = getattr(response, "choices", None) or []
+        if not choices:
+            raise VLMReplyError("the VLM server answered with no choices", reason="empty")
+        choice = choices[0]
+        content = getattr(choice.message, "content", None) or ""
+        return ChatReply(content, choice.finish_reason, getattr(response, "model", None))
+
+    def _record(
+        self,
+        key: str,
+        request: dict[str, Any],
+        *,
+        reply: ChatReply | None = None,
+        error: VLMError | None = None,
+    ) -> None:
+        if self.record_path is None:
+            return
+        entry: dict[str, Any] = {"key": key, "request": request}
+        if reply is not None:
+            entry["reply"] = {
+                "content": reply.content,
+                "finish_reason": reply.finish_reason,
+                "model": reply.model,
+            }
+        else:
+            assert error is not None
+            entry["error"] = {
+                "type": type(error).__name__,
+                "message": str(error),
+                "status": getattr(error, "status", None),
+            }
+        line = json.dumps(entry, sort_keys=True, ensure_ascii=False)
+        with self.record_path.open("a", encoding="utf-8") as handle:
+            handle.write(line + "\n")
+
+
+def _read_recording(path: Path) -> dict[str, deque[dict[str, Any]]]:
+    out: dict[str, deque[dict[str, Any]]] = defaultdict(deque)
+    try:
+        lines = path.read_text(encoding="utf-8").splitlines()
+    except FileNotFoundError:
+        raise
+    for n, line in enumerate(lines, start=1):
+        if not line.strip():
+            continue
+        try:
+            entry = json.loads(line)
+            out[entry["key"]].append(entry)
+        except (json.JSONDecodeError, KeyError, TypeError) as exc:
+            raise VLMConfigError(f"{path}:{n}: not a recorded exchange ({exc})") from exc
+    return dict(out)
+
+
+_ERRORS: dict[str, type[VLMError]] = {
+    "VLMTimeoutError": VLMTimeoutError,
+    "VLMTransportError": VLMTransportError,
+    "VLMReplyError": VLMReplyError,
+}
+
+
+def _replayed(recording: dict[str, deque[dict[str, Any]]], key: str) -> ChatReply:
+    entries = recording.get(key)
+    if not entries:
+        raise ReplayMissError(f"no recorded exchange for request {key[:12]}")
+    entry = entries.popleft() if len(entries) > 1 else entries[0]
+    if "error" in entry:
+        err = entry["error"]
+        kind = _ERRORS.get(err.get("type", ""), VLMTransportError)
+        if kind is VLMReplyError:
+            raise VLMReplyError(err.get("message", ""), reason="recorded")
+        raise kind(err.get("message", ""), status=err.get("status"))
+    reply = entry["reply"]
+    return ChatReply(reply["content"], reply.get("finish_reason"), reply.get("model"))

@@ -1,0 +1,94 @@
+"""Growing a program step by step while looking at what each step selects.
+
+The planner appends steps (single assignment, as the language requires) and may ask what
+a step evaluates to, to decide whether to relax a relation that selected nothing. Values
+come from running the program prefix on the scene's executor; they are cached, since a
+step never changes once added. :meth:`ProgramBuilder.program` keeps only the steps the
+answer depends on, renumbered.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from causalsplat.reason.context import SceneContext
+from queries import GraphQuery, QueryResult
+from queries.model import MAX_SET_INPUTS
+
+SCENE = 0
+
+
+class ProgramBuilder:
+    """Steps of a program under construction, with their values on one scene."""
+
+    def __init__(self, ctx: SceneContext) -> None:
+        self.ctx = ctx
+        self.steps: list[dict[str, Any]] = [{"op": "scene"}]
+        self.notes: list[str] = []
+        self._values: dict[int, tuple[int, ...] | int | bool] = {}
+
+    def add(self, op: str, *inputs: int, **fields: Any) -> int:
+        """Append a step; returns its index. Identical steps are shared."""
+        step: dict[str, Any] = {"op": op}
+        if inputs:
+            step["inputs"] = list(inputs)
+        step.update({k: v for k, v in fields.items() if v is not None})
+        for i, existing in enumerate(self.steps):
+            if existing == step:
+                return i
+        self.steps.append(step)
+        return len(self.steps) - 1
+
+    def union(self, inputs: list[int]) -> int:
+        """The union of several sets (one step per eight inputs); the set itself for one."""
+        unique = list(dict.fromkeys(inputs))
+        while len(unique) > 1:
+            chunks = [unique[i : i + MAX_SET_INPUTS] for i in range(0, len(unique), MAX_SET_INPUTS)]
+            unique = [c[0] if len(c) == 1 else self.add("union", *sorted(c)) for c in chunks]
+        return unique[0]
+
+    def value(self, index: int) -> tuple[int, ...]:
+        """The entity ids step ``index`` selects (sorted)."""
+        if index not in self._values:
+            result = self.ctx.run(self._prefix(index))
+            for i, v in enumerate(result.steps):
+                self._values[i] = v
+        value = self._values[index]
+        if not isinstance(value, tuple):
+            raise TypeError(f"step {index} is a {self.steps[index]['op']}, not a set")
+        return value
+
+    def size(self, index: int) -> int:
+        return len(self.value(index))
+
+    def _prefix(self, index: int) -> GraphQuery:
+        return GraphQuery.parse(
+            {"query_type": "spatial", "steps": self.steps[: index + 1], "answer_step": index}
+        )
+
+    def note(self, text: str) -> None:
+        self.notes.append(text)
+
+    def program(self, answer: int, query_type: str) -> GraphQuery:
+        """The program of the steps ``answer`` depends on, renumbered in order."""
+        needed: set[int] = set()
+        stack = [answer]
+        while stack:
+            i = stack.pop()
+            if i not in needed:
+                needed.add(i)
+                stack.extend(self.steps[i].get("inputs", []))
+        order = sorted(needed)
+        new_index = {old: new for new, old in enumerate(order)}
+        steps = []
+        for old in order:
+            step = dict(self.steps[old])
+            if "inputs" in step:
+                step["inputs"] = [new_index[j] for j in step["inputs"]]
+            steps.append(step)
+        return GraphQuery.parse(
+            {"query_type": query_type, "steps": steps, "answer_step": new_index[answer]}
+        )
+
+    def run(self, program: GraphQuery) -> QueryResult:
+        return self.ctx.run(program)

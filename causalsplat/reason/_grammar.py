@@ -1,0 +1,174 @@
+"""Phrase tables of the offline parser: relation cues, modifiers, triggers.
+
+Cues are regular expressions over the space-joined tokens of :mod:`causalsplat.reason._text`
+(so ``"to the left of"`` matches the tokens ``to the left of``); the longest cue starting
+at a token wins. The vocabulary covers the templates of Sr3D and the common phrasings of
+Nr3D and ScanRefer.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+#: Relation kinds a cue can name. Stored relations keep their RelationType value;
+#: ``closest`` / ``farthest`` / ``between`` / ``with`` are handled by the planner.
+_SIDE = r"(?:(?:to|on|at|towards?) )?(?:the )?(?:(?:far|very) )?"
+CUE_PATTERNS: tuple[tuple[str, str], ...] = (
+    ("left_of", _SIDE + r"left(?: hand)?(?: side)? of"),
+    ("right_of", _SIDE + r"right(?: hand)?(?: side)? of"),
+    ("side_left", r"(?:on|to|at|in|towards?) the (?:far |very )?left(?: hand)?(?: side)?"),
+    ("side_right", r"(?:on|to|at|in|towards?) the (?:far |very )?right(?: hand)?(?: side)?"),
+    ("side_middle", r"(?:in|at) the (?:very )?(?:middle|center|centre)"),
+    ("in_front_of", r"(?:(?:directly|right|just) )?in front of|(?:on|at|in) the front of"),
+    ("behind", r"(?:(?:directly|right|just) )?behind|in back of|"
+               r"(?:on|at|to) the back(?: side)? of"),
+    ("between", r"(?:(?:directly|right|just) )?(?:in )?between|"
+                r"in the (?:middle|center|centre) of"),
+    ("farthest", r"(?:the )?(?:(?:farthest|furthest|farther|further|far)(?: away)?|away) from"),
+    ("closest", r"(?:the )?(?:closest|nearest|closer|nearer)(?: to)?"),
+    ("near", r"(?:(?:right|directly|just|located|placed|sitting|standing) )?"
+             r"(?:near(?: to)?|next to|beside|besides|by|adjacent to|alongside|close to|"
+             r"nearby|against|at)"),
+    ("supported_by", r"(?:(?:lying|laying|sitting|resting|placed|standing|stacked|set|sits|"
+                     r"rests|lies|stands|kept|put|located) )?"
+                     r"(?:on (?:the )?top of|on top|atop|on|onto|upon)|supported by"),
+    ("supports", r"supporting|supports|holding|holds"),
+    ("above", r"(?:(?:directly|right|just|hanging|hung|mounted|located) )?"
+              r"(?:above|over|higher than)"),
+    ("below", r"(?:(?:directly|right|just|tucked|pushed|located) )?"
+              r"(?:below|under|underneath|beneath|lower than)"),
+    ("contains", r"containing|contains"),
+    ("inside", r"inside of|inside|within|into|in"),
+    ("with", r"with|that has|which has|that have|which have|has|have"),
+)  # fmt: skip
+CUES: tuple[tuple[str, re.Pattern[str]], ...] = tuple(
+    (kind, re.compile(rf"(?:{pattern})(?= |$)")) for kind, pattern in CUE_PATTERNS
+)
+
+#: Relation kinds that read "the anchor is <kind> the target" after "with NP ...":
+#: "the table with a lamp on it" -> lamp supported_by table -> table supports lamp.
+WITH_TAIL: dict[str, str] = {
+    "supported_by": "supports",
+    "inside": "contains",
+    "below": "above",
+    "above": "below",
+    "near": "near",
+    "left_of": "right_of",
+    "right_of": "left_of",
+    "in_front_of": "behind",
+    "behind": "in_front_of",
+}
+#: Words after a "with NP" tail cue that point back at the target ("on it", "on top").
+BACK_REFERENCES = frozenset({"it", "its", "them", "their", "top", "itself", "this", "that"})
+
+NEGATIONS = frozenset({"not", "no", "never", "except", "without"})
+PRONOUNS = frozenset({"it", "them", "this", "that", "these", "those", "its", "itself", "they"})
+DETERMINERS = frozenset({"the", "a", "an", "this", "that", "these", "those", "its", "their",
+                         "his", "her", "my", "your", "our", "some", "any", "another", "other",
+                         "each", "every"})  # fmt: skip
+#: Nouns that name places or parts, never a target or anchor of their own.
+SPATIAL_NOUNS = frozenset({
+    "top", "bottom", "side", "left", "right", "front", "back", "middle", "center", "centre",
+    "corner", "end", "edge", "part", "area", "room", "way", "spot", "place", "space", "group",
+    "row", "set", "lot", "one", "ones", "thing", "things", "object", "objects", "item", "items",
+    "something", "anything", "stuff", "somewhere", "direction", "view", "position", "line",
+    "pair", "couple", "rest", "kind", "type", "piece", "bit", "half", "number", "foot", "head",
+    "entrance", "hand", "hands", "time", "person", "people", "you", "i", "me", "question",
+})  # fmt: skip
+#: Function words that are never read as nouns ("can", "down" are nouns in WordNet too).
+FUNCTION_WORDS = frozenset({
+    "can", "could", "will", "would", "may", "might", "must", "shall", "should", "do", "does",
+    "did", "is", "are", "was", "were", "be", "been", "being", "am", "have", "has", "had", "i",
+    "you", "he", "she", "we", "they", "me", "down", "up", "out", "off", "there", "here",
+    "how", "when", "why", "yes", "all", "some", "any", "also", "just", "very", "really",
+    "please", "to", "as", "than", "then", "so", "if", "but", "find", "choose", "select",
+    "pick", "get", "go", "look", "see", "want", "need", "like", "located", "placed", "near",
+    "next", "far", "close", "left", "right", "front", "back", "behind", "below", "above",
+    "under", "between", "middle", "center", "centre", "side", "top", "bottom", "set", "put",
+})  # fmt: skip
+#: What makes a request about an action or a need ("where can I ...", "something to ...").
+ACTION_TRIGGERS = re.compile(
+    r"\b(?:can|could|may|should|might) (?:i|we|you|one|someone)\b|"
+    r"\b(?:something|somewhere|anything|anywhere|someplace|place|thing|things|stuff|"
+    r"objects?|items?|what|where) (?:to|that|which|for|i|you)\b|"
+    r"\b(?:i|we) (?:want|need|would like|wanna|have|am going) to\b|"
+    r"\b(?:used|good|useful) (?:to|for)\b"
+)
+#: Words that stand for "any entity" as a target.
+GENERIC_TARGETS = frozenset({"one", "ones", "thing", "things", "object", "objects", "item",
+                             "items", "something", "anything", "stuff", "everything",
+                             "what", "which", "where"})  # fmt: skip
+WH_WORDS = frozenset({"what", "which", "where", "who", "whatever"})
+VIEW_TRIGGERS = frozenset({"facing", "face", "looking", "look", "standing", "stand", "sitting",
+                           "viewing", "view", "seen", "entering", "enter", "walking"})  # fmt: skip
+#: Viewpoint triggers after which the observer stands *at* the anchor (not looking at it).
+STANDING_AT = frozenset({"standing", "stand", "sitting", "entering", "enter", "walking"})
+REMOVAL_TRIGGERS = re.compile(
+    r"\b(?:remov\w*|take[ns]? away|took away|taking away|pull(?:ed|s)? (?:out|away)|"
+    r"gone|disappear\w*|was not there|were not there|is not there|are not there|"
+    r"(?:got|get|gets|is|are|were|was) moved|delet\w*|knocked over)\b"
+)
+FALL_TRIGGERS = re.compile(r"\b(?:fall\w*|fell|drop\w*|collapse\w*|tumble\w*|topple\w*)\b")
+CLOSURE_TRIGGERS = re.compile(r"\b(?:stacked|everything|all (?:the )?things|piled)\b")
+
+#: Superlatives and size adjectives: word -> (metric, "argmax" | "argmin").
+EXTREMES: dict[str, tuple[str, str]] = {
+    "largest": ("volume", "argmax"), "biggest": ("volume", "argmax"),
+    "larger": ("volume", "argmax"), "bigger": ("volume", "argmax"),
+    "large": ("volume", "argmax"), "big": ("volume", "argmax"), "huge": ("volume", "argmax"),
+    "smallest": ("volume", "argmin"), "smaller": ("volume", "argmin"),
+    "small": ("volume", "argmin"), "little": ("volume", "argmin"), "tiny": ("volume", "argmin"),
+    "tallest": ("height", "argmax"), "taller": ("height", "argmax"), "tall": ("height", "argmax"),
+    "shortest": ("height", "argmin"), "shorter": ("height", "argmin"),
+    "short": ("height", "argmin"),
+    "highest": ("z", "argmax"), "higher": ("z", "argmax"), "upper": ("z", "argmax"),
+    "uppermost": ("z", "argmax"), "topmost": ("z", "argmax"),
+    "lowest": ("z", "argmin"), "lower": ("z", "argmin"), "bottommost": ("z", "argmin"),
+}  # fmt: skip
+#: Side words (relative to the observer): word -> "left" | "right" | "middle".
+SIDES: dict[str, str] = {
+    "left": "left", "leftmost": "left", "rightmost": "right", "right": "right",
+    "middle": "middle", "center": "middle", "centre": "middle", "central": "middle",
+}  # fmt: skip
+#: Bodily states that point at an affordance ("I am thirsty" -> drink).
+STATES: dict[str, str] = {
+    "thirsty": "drink", "hungry": "eat", "tired": "sleep", "sleepy": "sleep",
+    "cold": "keep warm", "chilly": "keep warm", "dark": "illuminate", "bored": "read",
+    "dirty": "wash", "wet": "dry",
+}  # fmt: skip
+#: Words that carry no meaning for affordance matching.
+ACTION_STOPWORDS = frozenset({
+    "where", "what", "which", "can", "could", "would", "should", "i", "me", "my", "we", "you",
+    "to", "a", "an", "the", "is", "are", "am", "be", "do", "does", "something", "somewhere",
+    "some", "want", "need", "like", "go", "get", "use", "up", "have", "has", "had",
+    "down", "it", "there", "here", "for", "of", "one", "anything", "please", "find", "show",
+    "let", "us", "let's", "able", "in", "on", "with", "from", "at", "into", "while", "when",
+})  # fmt: skip
+#: Words a trailing preposition keeps in an affordance phrase ("cook in", "sit on").
+PARTICLES = frozenset({"in", "on", "with", "from", "at", "into"})
+
+
+@dataclass(frozen=True, slots=True)
+class Cue:
+    """A relation cue found in the tokens: ``kind`` over tokens ``[start, end)``."""
+
+    kind: str
+    start: int
+    end: int
+
+
+def find_cue(tokens: tuple[str, ...], offsets: tuple[int, ...], joined: str, i: int) -> Cue | None:
+    """The longest cue starting at token ``i`` (``offsets``: character start of each token
+    in ``joined``), or ``None``."""
+    best: Cue | None = None
+    best_len = 0
+    for kind, pattern in CUES:
+        m = pattern.match(joined, offsets[i])
+        if m is None:
+            continue
+        length = m.end() - m.start()
+        if length > best_len:
+            end = i + len(m.group(0).split())
+            best, best_len = Cue(kind, i, end), length
+    return best

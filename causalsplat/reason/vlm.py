@@ -1,0 +1,242 @@
+"""The VLM backend: a vision-language model writes the program, the executor runs it.
+
+One request per instruction to an OpenAI-compatible chat-completions server
+(:mod:`causalsplat.openai_compat`), with the prompt templates of ``prompts/`` (the system
+prompt lists the ops and relations; the user prompt holds the compact scene graph of
+:mod:`causalsplat.reason._graph_text` and the instruction) and structured output:
+``response_format`` is a ``json_schema`` of ``{"program": <GraphQuery.json_schema()>,
+"target_ids": [...], "explanation": "..."}`` (the method's three stages in one reply).
+
+Every reply is checked: cut off (``finish_reason == "length"``), not JSON, not of the
+schema or not a valid program (:class:`~queries.QueryValidationError`), naming a category,
+attribute or affordance the scene does not hold, or an entity id not in the graph. The
+first failure is fed back for one retry; a second failure, a timeout, an HTTP error or a
+replay miss hand the instruction to the fallback reasoner (the offline one by default),
+and the :class:`~causalsplat.reason.answer.Answer` says so (``reasoner="offline"``,
+``requested="vlm"``, ``fallback=<why>``). With ``fallback=False`` the typed error is
+raised instead. The program (not the model's ``target_ids``) decides the answer; when the
+two disagree the explanation says so.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+from importlib import resources
+from pathlib import Path
+from string import Template
+from typing import Any
+
+from causalsplat.openai_compat import ChatClient, VLMConfig, VLMError, VLMReplyError
+from causalsplat.openai_compat.client import ChatReply, Message
+from causalsplat.reason._graph_text import graph_text
+from causalsplat.reason.answer import Answer, make_answer
+from causalsplat.reason.context import SceneContext
+from causalsplat.reason.reasoner import Reasoner
+from graph_store.types import RelationType
+from queries import OP_SPECS, GraphQuery, Op, QueryError, QueryValidationError
+from queries.semantics import normalise_text, split_attribute
+
+_GRAPH_KEY = "vlm:graph-text"
+
+
+def _template(name: str) -> Template:
+    path = resources.files("causalsplat.reason").joinpath("prompts", name)
+    return Template(path.read_text(encoding="utf-8"))
+
+
+def reply_schema() -> dict[str, Any]:
+    """The JSON Schema of a reply: the program, the target ids, an explanation."""
+    program = GraphQuery.json_schema()
+    program.pop("title", None)
+    return {
+        "type": "object",
+        "properties": {
+            "program": program,
+            "target_ids": {"type": "array", "items": {"type": "integer", "minimum": 0}},
+            "explanation": {"type": "string", "maxLength": 2000},
+        },
+        "required": ["program", "target_ids", "explanation"],
+        "additionalProperties": False,
+    }
+
+
+def response_format() -> dict[str, Any]:
+    return {
+        "type": "json_schema",
+        "json_schema": {"name": "scene_graph_answer", "schema": reply_schema(), "strict": True},
+    }
+
+
+class VLMReasoner:
+    """Program synthesis by a VLM server, with validation, one retry and a fallback.
+
+    Args:
+        config: server settings (default: ``VLMConfig.from_env()``).
+        client: a ready :class:`~causalsplat.openai_compat.ChatClient` (overrides
+            ``config``, ``record`` and ``replay``).
+        fallback: the reasoner used when the VLM fails (default: a new offline reasoner);
+            ``False`` raises the error instead.
+        record / replay: a JSONL file of exchanges to write / to answer from.
+        max_entities: most entities shown in the prompt.
+    """
+
+    name = "vlm"
+
+    def __init__(
+        self,
+        *,
+        config: VLMConfig | None = None,
+        client: ChatClient | None = None,
+        fallback: Reasoner | bool = True,
+        record: str | Path | None = None,
+        replay: str | Path | None = None,
+        max_entities: int = 300,
+    ) -> None:
+        self.client = client or ChatClient(config, record=record, replay=replay)
+        if fallback is True:
+            from causalsplat.reason.offline import OfflineReasoner
+
+            fallback = OfflineReasoner()
+        self.fallback: Reasoner | None = fallback or None
+        self.max_entities = max_entities
+
+    def __repr__(self) -> str:
+        return f"VLMReasoner({self.client!r})"
+
+    def answer(self, text: str, ctx: SceneContext) -> Answer:
+        try:
+            program, notes = self.program(text, ctx)
+            result = ctx.run(program)
+        except (VLMError, QueryError) as exc:
+            if self.fallback is None:
+                raise
+            why = f"{type(exc).__name__}: {exc}"
+            answer = self.fallback.answer(text, ctx)
+            return replace(
+                answer,
+                requested=self.name,
+                fallback=why,
+                explanation=f"the VLM failed ({why}); answered by {answer.reasoner}\n"
+                + answer.explanation,
+            )
+        named = notes.target_ids
+        if (
+            isinstance(result.answer, tuple)
+            and named is not None
+            and set(named) != set(result.answer)
+        ):
+            notes.lines.append(
+                f"the model named {sorted(named)}; its program selects"
+                f" {list(result.answer)} (the program's answer is kept)"
+            )
+        explanation = "\n".join([*notes.lines, result.explain()])
+        return make_answer(ctx, text, result, explanation=explanation, reasoner=self.name)
+
+    # -- one exchange ----------------------------------------------------------------------
+
+    def messages(self, text: str, ctx: SceneContext) -> list[Message]:
+        """The system and user messages for an instruction."""
+        graph = ctx.cache.get(_GRAPH_KEY)
+        if graph is None:
+            graph = ctx.cache[_GRAPH_KEY] = graph_text(ctx.graph, max_entities=self.max_entities)
+        ops = "\n".join(f"- {spec.signature}" for spec in OP_SPECS.values())
+        relations = ", ".join(r.value for r in RelationType)
+        system = _template("system.txt").substitute(ops=ops, relations=relations)
+        user = _template("user.txt").substitute(graph=graph, instruction=text)
+        return [{"role": "system", "content": system}, {"role": "user", "content": user}]
+
+    def program(self, text: str, ctx: SceneContext) -> tuple[GraphQuery, _Notes]:
+        """Ask the server for a program (one retry); raises a ``VLMError`` when the second
+        reply is unusable too."""
+        messages = self.messages(text, ctx)
+        fmt = response_format()
+        reply = self.client.complete(messages, response_format=fmt)
+        try:
+            return check_reply(reply, ctx)
+        except VLMReplyError as exc:
+            first = exc
+        retry = _template("retry.txt").substitute(error=str(first))
+        messages = [
+            *messages,
+            {"role": "assistant", "content": reply.content},
+            {"role": "user", "content": retry},
+        ]
+        program, notes = check_reply(self.client.complete(messages, response_format=fmt), ctx)
+        notes.lines.insert(0, f"first reply rejected ({first.reason}); the retry was used")
+        return program, notes
+
+
+class _Notes:
+    """What a checked reply says besides the program."""
+
+    def __init__(self, target_ids: list[int] | None, explanation: str) -> None:
+        self.target_ids = target_ids
+        self.lines = [f"the model: {explanation}"] if explanation else []
+
+
+def check_reply(reply: ChatReply, ctx: SceneContext) -> tuple[GraphQuery, _Notes]:
+    """Validate one reply against the schema and the scene (module docstring)."""
+    if reply.finish_reason == "length":
+        raise VLMReplyError("the reply was cut off (finish_reason=length)", reason="truncated")
+    try:
+        data = json.loads(_strip_fences(reply.content))
+    except json.JSONDecodeError as exc:
+        raise VLMReplyError(f"the reply is not JSON ({exc.msg})", reason="json") from exc
+    if not isinstance(data, dict) or "program" not in data:
+        raise VLMReplyError("the reply must be a JSON object with a 'program'", reason="schema")
+    extra = sorted(set(data) - {"program", "target_ids", "explanation"})
+    if extra:
+        raise VLMReplyError(f"unexpected keys {extra}", reason="schema")
+    try:
+        program = GraphQuery.parse(data["program"])
+    except QueryValidationError as exc:
+        raise VLMReplyError(f"the program is invalid: {exc}", reason="schema") from exc
+    _check_names(program, ctx)
+    ids = data.get("target_ids")
+    if ids is not None:
+        if not isinstance(ids, list) or not all(
+            isinstance(i, int) and not isinstance(i, bool) for i in ids
+        ):
+            raise VLMReplyError("'target_ids' must be a list of integers", reason="schema")
+        unknown = sorted(i for i in ids if i not in ctx.by_id)
+        if unknown:
+            raise VLMReplyError(
+                f"target_ids {unknown} are not entities of the scene", reason="unknown_id"
+            )
+    explanation = data.get("explanation", "")
+    if not isinstance(explanation, str):
+        raise VLMReplyError("'explanation' must be a string", reason="schema")
+    return program, _Notes(ids, explanation.strip())
+
+
+def _check_names(program: GraphQuery, ctx: SceneContext) -> None:
+    categories = {normalise_text(c) for c in ctx.categories}
+    pairs = {(normalise_text(k), normalise_text(v)) for k, v in ctx.attribute_pairs()}
+    affordance_key = normalise_text(ctx.config.affordance_key)
+    for i, step in enumerate(program.steps):
+        value = step.value
+        if value is None:
+            continue
+        if step.op is Op.FILTER_CATEGORY and normalise_text(value) not in categories:
+            raise VLMReplyError(
+                f"step {i}: category {value!r} is not in the scene"
+                f" (categories: {', '.join(sorted(ctx.categories)[:40])})",
+                reason="unknown_name",
+            )
+        if step.op is Op.FILTER_ATTRIBUTE and split_attribute(value) not in pairs:
+            raise VLMReplyError(
+                f"step {i}: attribute {value!r} is not in the scene", reason="unknown_name"
+            )
+        if step.op is Op.FILTER_AFFORDANCE and (affordance_key, normalise_text(value)) not in pairs:
+            raise VLMReplyError(
+                f"step {i}: affordance {value!r} is not in the scene", reason="unknown_name"
+            )
+
+
+def _strip_fences(content: str) -> str:
+    text = content.strip()
+    if text.startswith("```"):
+        text = text.split("\n", 1)[1] if "\n" in text else ""
+        text = text.rsplit("```", 1)[0]
+    return text.strip()

@@ -1,0 +1,66 @@
+"""The ask and eval commands, invoked for real."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+from click.testing import CliRunner
+
+from causalsplat import Store
+from causalsplat.cli import cli
+from tests.conftest import REPO_ROOT
+
+
+def test_ask_json(tiny_store: Store) -> None:
+    url = tiny_store.graph_store.url
+    result = CliRunner().invoke(
+        cli, ["ask", "if the table is removed, what falls?", "--scene", "synth-tiny-0",
+              "--db", url, "--json"],
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.output)
+    assert {"query", "program", "answer", "entities", "explanation", "reasoner"} <= set(doc)
+    assert doc["reasoner"] == "offline" and doc["query_type"] == "counterfactual"
+    assert [e["id"] for e in doc["entities"]] == doc["answer"]
+    assert {"id", "external_id", "category"} <= set(doc["entities"][0])
+
+
+def test_eval_json_and_text(tiny_store: Store, tiny_dir: Path) -> None:
+    url = tiny_store.graph_store.url
+    args = ["eval", str(tiny_dir / "queries.json"), "--scene", "synth-tiny-0", "--db", url]
+    result = CliRunner().invoke(cli, [*args, "--json"])
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.output)
+    assert {"n", "accuracy", "miou", "by_type", "per_query"} <= set(doc)
+    assert doc["n"] == len(doc["per_query"]) and doc["accuracy"] >= 16 / 18
+    text = CliRunner().invoke(cli, args)
+    assert text.exit_code == 0 and "accuracy" in text.output
+
+
+def test_errors_are_one_line(tiny_store: Store) -> None:
+    url = tiny_store.graph_store.url
+    runner = CliRunner()
+    missing = runner.invoke(cli, ["ask", "the cup", "--scene", "nope", "--db", url])
+    assert missing.exit_code == 1 and "nope" in missing.output
+    unknown = runner.invoke(cli, ["ask", "the piano", "--scene", "synth-tiny-0", "--db", url])
+    assert unknown.exit_code == 1 and "names nothing" in unknown.output
+    assert len(unknown.output.strip().splitlines()) == 1
+
+
+def test_cold_ask_does_not_import_torch(tiny_store: Store) -> None:
+    script = (
+        "import sys\n"
+        "from causalsplat.cli import main\n"
+        f"sys.argv = ['causalsplat', 'ask', 'the blue stool', '--scene', 'synth-tiny-0',"
+        f" '--db', {tiny_store.graph_store.url!r}, '--json']\n"
+        "try:\n    main()\nexcept SystemExit:\n    pass\n"
+        "print('TORCH' if 'torch' in sys.modules else 'LIGHT')\n"
+    )
+    proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                          cwd=REPO_ROOT, check=True)  # fmt: skip
+    document, _, marker = proc.stdout.strip().rpartition("\n")
+    assert marker == "LIGHT"
+    assert json.loads(document)["answer"] == [9]

@@ -1,0 +1,79 @@
+"""The shipped lexicon, its generator, the tokenizer and stage 1 (parsing)."""
+
+from __future__ import annotations
+
+import gzip
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from causalsplat.reason import SceneContext
+from causalsplat.reason._text import tokenize
+from causalsplat.reason.lexicon import load_lexicon
+from causalsplat.reason.offline import OfflineReasoner
+from tests.conftest import REPO_ROOT
+
+LEX = load_lexicon()
+DATA = REPO_ROOT / "causalsplat" / "reason" / "data" / "lexicon.json.gz"
+
+
+def test_lexicon_morphology_synonyms_affordances() -> None:
+    assert [LEX.lemma(w) for w in ("shelves", "boxes", "chairs", "knives")] == [
+        "shelf", "box", "chair", "knife"
+    ]  # fmt: skip
+    assert LEX.phrase_lemma(["kitchen", "cabinets"]) == "kitchen cabinet"
+    assert {"couch", "lounge"} <= set(LEX.synonyms("sofa"))
+    assert "garbage can" in LEX.synonyms("trash can")
+    assert LEX.affordances("armchair") == ("sit",)
+    assert LEX.affordances("office chair") == ("sit",)  # through its head noun
+    assert "heat food" in LEX.affordances("microwave")
+    assert "dine" in LEX.related_words("dinner")
+    assert "place" in LEX.related_words("put")
+
+
+def test_shipped_file_keeps_the_wordnet_licence() -> None:
+    document = json.loads(gzip.decompress(DATA.read_bytes()))
+    assert "Princeton University" in document["licence"]
+    assert "WordNet 3.0 Copyright 2006 by Princeton University" in document["licence"]
+    assert document["format"] == "causalsplat-lexicon/1"
+
+
+@pytest.mark.skipif(not Path("/usr/share/wordnet/data.noun").exists(), reason="no wordnet-base")
+def test_generator_reproduces_the_shipped_file(tmp_path: Path) -> None:
+    out = tmp_path / "lexicon.json.gz"
+    script = REPO_ROOT / "scripts" / "make_lexicon.py"
+    subprocess.run([sys.executable, str(script), "-o", str(out)], check=True, capture_output=True)
+    assert out.read_bytes() == DATA.read_bytes()
+
+
+def test_tokenizer() -> None:
+    assert tokenize("Facing the T.V., pick the chair that's left-of it!") == (
+        "facing", "the", "tv", ",", "pick", "the", "chair", "that", "is", "left", "of",
+        "it", ".",
+    )  # fmt: skip
+    assert tokenize("It isn't the mug") == ("it", "is", "not", "the", "mug")
+
+
+def test_stage_one_reads_sr3d_templates(room: SceneContext) -> None:
+    parse = OfflineReasoner().parse
+    ins = parse("choose the chair that is in the middle of the couch and the lamp", room)
+    assert ins.kind == "refer" and ins.target is not None
+    assert ins.target.categories == ("chair",)
+    (c,) = ins.target.constraints
+    assert c.kind == "between" and [a.categories for a in c.anchors] == [("couch",), ("lamp",)]
+    ins = parse("facing the front of the table, pick the cup that is to the left of it", room)
+    assert ins.viewpoint is not None and ins.viewpoint.categories == ("table",)
+    assert ins.target is not None and ins.target.constraints[0].kind == "left_of"
+    ins = parse("the box with a cup on top of it", room)
+    assert ins.target is not None and ins.target.constraints[0].kind == "supports"
+    ins = parse("the cup that is not on the box", room)
+    assert ins.target is not None and ins.target.constraints[0].negated
+    ins = parse("if the box and the table are removed, what falls?", room)
+    assert ins.kind == "counterfactual" and [np.categories for np in ins.removed] == [
+        ("box",), ("table",)
+    ]  # fmt: skip
+    assert parse("what can I sit on?", room).kind == "action"
+    assert parse("the blue cup", room).is_intrinsic

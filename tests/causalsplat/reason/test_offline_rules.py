@@ -1,0 +1,147 @@
+"""The offline reasoner's rules on a hand-made room whose answers are worked out by hand.
+
+Room (metres, z up): a table (1) with a red cup (2) and a white box (3) on it, a blue
+cup (4) on the box; chairs west (5) and east (6) of the table and a tall one in the far
+corner (7); a door (8) on the north wall, a lamp (9) in the south-east, a couch (10)
+south-west. The scene centre is (3, 2, 1.025).
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from causalsplat.reason import InstructionError, SceneContext
+from causalsplat.reason.offline import OfflineReasoner
+from queries import GraphQuery, Op
+
+REASONER = OfflineReasoner()
+
+
+def ask(ctx: SceneContext, text: str) -> tuple[int, ...]:
+    return REASONER.answer(text, ctx).entity_ids
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        # closest / farthest: chair centroids (1.25, 1.45), (3.85, 1.45), (5.4, 3.2)
+        ("the chair closest to the lamp", (6,)),
+        ("choose the chair that is farthest from the lamp", (5,)),
+        ("find the chair that is near the door", (5,)),
+        ("select the chair that is far away from the couch", (7,)),
+        # support, both directions, and "with X on top"
+        ("the cup that is on top of the box", (4,)),
+        ("the cup lying on the table", (2,)),
+        ("the box with a cup on top of it", (3,)),
+        ("select the table that is supporting the box", (1,)),
+        # vertical
+        ("the cup that is above the box", (4,)),
+        # superlatives and size words
+        ("the tallest chair", (7,)),
+        ("the largest chair", (7,)),
+        ("the highest cup", (4,)),
+        ("the lowest cup", (2,)),
+        # attributes
+        ("the blue cup", (4,)),
+        ("the red cup", (2,)),
+        # synonyms through the lexicon: a sofa is a couch
+        ("the sofa", (10,)),
+    ],
+)
+def test_referring_expressions(room: SceneContext, text: str, expected: tuple[int, ...]) -> None:
+    assert ask(room, text) == expected
+
+
+def test_between_picks_the_chair_between_two_anchors(room: SceneContext) -> None:
+    # the table (2.6, 1.5) lies between chairs 5 and 6 on the line y = 1.45
+    assert ask(room, "the table that is between the chair and the lamp") == (1,)
+    answer = REASONER.answer("the table in the middle of the couch and the lamp", room)
+    assert answer.entity_ids == (1,)
+    assert any(s.op is Op.RELATE_BETWEEN for s in answer.program.steps)
+
+
+def test_view_dependent_relations_use_the_viewpoint(room: SceneContext) -> None:
+    # Facing the table from the scene centre (3, 2) towards it (2.6, 1.5): the observer
+    # looks south-west; right is north-west. Chair 5 is west of the table (to the right),
+    # chair 6 east (to the left).
+    assert ask(
+        room, "facing the front of the table, pick the chair that is to the right of it"
+    ) == (5,)
+    assert ask(room, "looking at the front of the table, choose the chair on the left of it") == (
+        6,
+    )
+    answer = REASONER.answer("the chair to the left of the table", room)
+    step = next(s for s in answer.program.steps if s.op is Op.RELATE)
+    assert step.relation is not None and step.relation.value == "left_of"
+
+
+def test_sides_and_ordinals_without_an_anchor(room: SceneContext) -> None:
+    # From the centre (3, 2) towards the chairs' centroid (3.5, 2.03): looking east, right
+    # is south (-y). Along y: chair 5 and 6 at 1.45, chair 7 at 3.2 -> chair 7 is leftmost.
+    assert ask(room, "the chair on the left") == (7,)
+    assert ask(room, "the leftmost chair") == (7,)
+    second = ask(room, "the second chair from the left")
+    assert len(second) == 1 and second[0] in (5, 6)
+
+
+def test_negation_subtracts_the_related_set(room: SceneContext) -> None:
+    answer = REASONER.answer("the cup that is not on the box", room)
+    assert answer.entity_ids == (2,)
+    assert any(s.op is Op.DIFFERENCE for s in answer.program.steps)
+
+
+def test_set_questions_keep_every_match(room: SceneContext) -> None:
+    assert ask(room, "what is on the table?") == (2, 3)
+    assert ask(room, "what is the blue cup resting on?") == (3,)
+    assert ask(room, "which chairs are near the table?") == (5, 6)
+
+
+def test_counterfactual_follows_support_chains(room: SceneContext) -> None:
+    answer = REASONER.answer("if the table is removed, what falls?", room)
+    assert answer.entity_ids == (2, 3, 4)
+    assert answer.query_type == "counterfactual"
+    assert [p.path for p in answer.result.support_paths] == [(2, 1), (3, 1), (4, 3, 1)]
+    assert ask(room, "what would fall if someone took away the box?") == (4,)
+
+
+def test_intrinsic_queries_skip_topology(room: SceneContext) -> None:
+    answer = REASONER.answer("the blue cup", room)
+    assert answer.query_type == "intrinsic"
+    assert not any(s.spec.topological for s in answer.program.steps)
+
+
+def test_count_and_exists(room: SceneContext) -> None:
+    answer = REASONER.answer("how many chairs are there?", room)
+    assert answer.value == 3 and answer.entity_ids == (5, 6, 7)
+    assert REASONER.answer("is there a lamp?", room).value is True
+
+
+def test_affordances_come_from_the_lexicon_when_none_are_stored(room: SceneContext) -> None:
+    answer = REASONER.answer("where can I sit down?", room)
+    assert answer.query_type == "commonsense"
+    assert answer.entity_ids == (5, 6, 7, 10)  # chairs and the couch
+    near = REASONER.answer("something to sit on near the table", room)
+    # the couch counts too: its centroid is within 1.5x the footprint radii of the table
+    assert near.query_type == "affordance" and near.entity_ids == (5, 6, 10)
+
+
+def test_relaxation_is_explained(room: SceneContext) -> None:
+    # nothing is above the door: the singular reading relaxes and says so
+    answer = REASONER.answer("the lamp that is above the door", room)
+    assert answer.entity_ids == (9,)
+    assert "nothing is above it" in answer.explanation
+
+
+def test_unknown_words_raise_a_typed_error(room: SceneContext) -> None:
+    with pytest.raises(InstructionError, match="names nothing"):
+        REASONER.answer("the piano", room)
+
+
+def test_answers_are_valid_programs_and_deterministic(room: SceneContext) -> None:
+    texts = ["the chair closest to the lamp", "if the table is removed, what falls?"]
+    first = [REASONER.answer(t, room) for t in texts]
+    again = [OfflineReasoner().answer(t, SceneContext(room.graph)) for t in texts]
+    for a, b in zip(first, again, strict=True):
+        assert a.program == b.program and a.entity_ids == b.entity_ids
+        assert GraphQuery.from_text(a.program.to_text()) == a.program
+        assert a.reasoner == "offline" and a.fallback is None
