@@ -330,6 +330,11 @@ class _Reader:
             if not anchors:
                 return k, None
             if len(anchors) < 2:
+                # "between the two chairs": one plural anchor names both ends; a singular
+                # one ("between the bed") can only mean next to it.
+                mention = anchors[0].mention
+                if mention is not None and mention.plural:
+                    return k, Constraint("between", (anchors[0],))
                 return k, Constraint("closest", (anchors[0],))
         return k, Constraint(cue.kind, tuple(anchors))
 

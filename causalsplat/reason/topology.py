@@ -168,7 +168,9 @@ class Planner:
         if kind == "near" and singular and not selectors:
             return b.add("argmin", step, a[0], metric="distance")
         if kind == "between":
-            return self._between(step, a[0], a[1], singular=singular)
+            # "between the two chairs": one anchor set whose members are both ends (an
+            # entity is never between an anchor and itself, so A x A pairs distinct ends).
+            return self._between(step, a[0], a[1] if len(a) > 1 else a[0], singular=singular)
         if kind == "with":
             out = b.add("relate", step, a[0], relation="supports")
             if b.size(out) == 0:

@@ -60,6 +60,14 @@ def test_between_picks_the_chair_between_two_anchors(room: SceneContext) -> None
     assert any(s.op is Op.RELATE_BETWEEN for s in answer.program.steps)
 
 
+def test_between_one_plural_anchor_uses_two_of_its_members(room: SceneContext) -> None:
+    # "the two chairs" is one anchor set: the table lies between chairs 5 and 6
+    answer = REASONER.answer("the table that is between the two chairs", room)
+    assert answer.entity_ids == (1,)
+    between = [s for s in answer.program.steps if s.op is Op.RELATE_BETWEEN]
+    assert between and between[0].inputs[1] == between[0].inputs[2]
+
+
 def test_view_dependent_relations_use_the_viewpoint(room: SceneContext) -> None:
     # Facing the table from the scene centre (3, 2) towards it (2.6, 1.5): the observer
     # looks south-west; right is north-west. Chair 5 is west of the table (to the right),
