@@ -36,6 +36,7 @@ if TYPE_CHECKING:
     import numpy as np
     import numpy.typing as npt
 
+    from causalsplat.build import BuildConfig, BuildResult
     from causalsplat.eval.reasoning import EvalReport
     from causalsplat.reason import Answer, Reasoner, SceneContext
     from graph_store.rdf import RdfView, SparqlResult
@@ -125,6 +126,38 @@ class Store:
         graph = objects_to_scene_graph(read_objects(path), scene_id=scene_id)
         return self.save_scene(graph, if_exists=if_exists)
 
+    def build(
+        self,
+        path: str | Path,
+        *,
+        scene_id: str | None = None,
+        config: BuildConfig | str | Path | None = None,
+        if_exists: IfExists = "fail",
+        cache_dir: str | Path | bool | None = True,
+        progress: bool = False,
+    ) -> Scene:
+        """Build a scene folder (DESIGN §9) into a scene graph and store it with its
+        per-Gaussian labels; returns the scene handle.
+
+        ``config`` is a :class:`~causalsplat.build.config.BuildConfig` or the path of its
+        JSON file. Stages are cached by content under ``cache_dir`` (``True``: the default
+        directory, ``False``: none). The build report (stage timings, peak memory,
+        instance quality) is ``scene.build_report``; :func:`causalsplat.build.build_scene`
+        returns it without storing anything.
+        """
+        from causalsplat.build import BuildConfig, build_scene
+
+        if isinstance(config, str | Path):
+            config = BuildConfig.from_file(config)
+        result = build_scene(
+            path, scene_id=scene_id, config=config, cache_dir=cache_dir, progress=progress
+        )
+        scene = self.save_scene(
+            result.graph, if_exists=if_exists, gaussian_labels=result.gaussian_labels
+        )
+        scene.build_report = result
+        return scene
+
     # -- RDF ---------------------------------------------------------------------------
 
     def export_rdf(
@@ -198,6 +231,8 @@ class Scene:
         self.id = scene_id
         self._graph = graph
         self._rdf: dict[str, RdfView] = {}
+        #: The report of the build that made this handle (``Store.build`` only).
+        self.build_report: BuildResult | None = None
 
     def __repr__(self) -> str:
         return f"Scene({self.id!r})"

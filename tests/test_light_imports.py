@@ -11,6 +11,7 @@ SCRIPT = """
 import sys
 import graph_store, queries, causalsplat
 import causalsplat.api, causalsplat.cli, causalsplat.objects, graph_store.repository
+import causalsplat.build, causalsplat.field, causalsplat.instances, causalsplat.graph.nodes
 from causalsplat import open_store
 with open_store("sqlite://") as store:
     store.scenes()

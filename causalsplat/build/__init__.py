@@ -1,2 +1,23 @@
-"""Building a stored scene graph from a scene folder (DESIGN §9): reading the folder,
-the cached pipeline stages, the build report."""
+"""Building a stored scene graph from a scene folder (DESIGN §9).
+
+:func:`build_scene` reads the folder, runs the cached stages (rasterize, field, instances,
+graph) and returns a :class:`BuildResult`; :class:`BuildConfig` holds every knob and reads
+a JSON config file. Importing this package does not import torch.
+"""
+
+from causalsplat.build.config import BuildConfig, BuildConfigError
+from causalsplat.build.errors import BuildError
+from causalsplat.build.folder import SceneFolder, SceneFolderFormatError, read_scene_folder
+from causalsplat.build.pipeline import BuildResult, StageReport, build_scene
+
+__all__ = [
+    "BuildConfig",
+    "BuildConfigError",
+    "BuildError",
+    "BuildResult",
+    "SceneFolder",
+    "SceneFolderFormatError",
+    "StageReport",
+    "build_scene",
+    "read_scene_folder",
+]

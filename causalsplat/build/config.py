@@ -1,0 +1,132 @@
+"""Every knob of ``causalsplat build`` in one frozen dataclass, readable from a JSON file.
+
+A config file holds any subset of the sections below; what it leaves out keeps its
+default. Unknown sections or keys are refused with :class:`BuildConfigError`::
+
+    {"max_views": 40, "units": "m", "up_axis": "z",
+     "raster": {"max_contributors": 64},
+     "field": {"iterations": 300, "feature_dim": 16, "weighting": "spatial"},
+     "instances": {"min_cluster_size": 3, "assignment": "vote"},
+     "nodes": {"bbox_quantile": 0.01},
+     "edges": {"tau_v": 0.3}}
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from dataclasses import dataclass, fields
+from pathlib import Path
+from typing import Any
+
+from causalsplat.errors import InputFormatError
+from causalsplat.field import FieldConfig
+from causalsplat.graph import EdgeConfig
+from causalsplat.graph.nodes import NodeConfig
+from causalsplat.instances import InstanceConfig
+from causalsplat.render import RasterConfig
+
+
+class BuildConfigError(InputFormatError):
+    """A build config (file or value) is malformed; the message names the key."""
+
+
+_SECTIONS: dict[str, type] = {
+    "raster": RasterConfig,
+    "field": FieldConfig,
+    "instances": InstanceConfig,
+    "nodes": NodeConfig,
+    "edges": EdgeConfig,
+}
+
+
+@dataclass(frozen=True, slots=True)
+class BuildConfig:
+    """Options of every build stage (see each section's class for its fields).
+
+    Attributes:
+        max_views: use at most this many views, evenly spaced (``None``: all).
+        units: the scene's length unit, stored with the scene.
+        up_axis: the vertical axis (``x``, ``y`` or ``z``) for the spatial relations.
+    """
+
+    max_views: int | None = None
+    units: str = "m"
+    up_axis: str = "z"
+    raster: RasterConfig = dataclasses.field(default_factory=RasterConfig)
+    field: FieldConfig = dataclasses.field(default_factory=FieldConfig)
+    instances: InstanceConfig = dataclasses.field(default_factory=InstanceConfig)
+    nodes: NodeConfig = dataclasses.field(default_factory=NodeConfig)
+    edges: EdgeConfig = dataclasses.field(default_factory=EdgeConfig)
+
+    def __post_init__(self) -> None:
+        if self.max_views is not None and (
+            not isinstance(self.max_views, int) or self.max_views < 1
+        ):
+            raise BuildConfigError(f"max_views={self.max_views!r} must be a positive integer")
+        if self.up_axis not in ("x", "y", "z"):
+            raise BuildConfigError(f"up_axis={self.up_axis!r} must be 'x', 'y' or 'z'")
+        if not isinstance(self.units, str) or not self.units:
+            raise BuildConfigError(f"units={self.units!r} must be a non-empty string")
+
+    def to_json(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"max_views": self.max_views, "units": self.units,
+                               "up_axis": self.up_axis}  # fmt: skip
+        for name in _SECTIONS:
+            out[name] = _section_json(getattr(self, name))
+        return out
+
+    @classmethod
+    def from_json(cls, document: Any, *, source: str = "<config>") -> BuildConfig:
+        if not isinstance(document, dict):
+            raise BuildConfigError(f"{source}: a build config is a JSON object")
+        top = {f.name for f in fields(cls)}
+        unknown = sorted(set(document) - top)
+        if unknown:
+            raise BuildConfigError(f"{source}: unknown key(s) {unknown}; known: {sorted(top)}")
+        kwargs: dict[str, Any] = {}
+        for key, value in document.items():
+            if key in _SECTIONS:
+                kwargs[key] = _section(_SECTIONS[key], value, f"{source}: {key}")
+            else:
+                kwargs[key] = value
+        try:
+            return cls(**kwargs)
+        except (TypeError, ValueError) as exc:
+            if isinstance(exc, BuildConfigError):
+                raise
+            raise BuildConfigError(f"{source}: {exc}") from exc
+
+    @classmethod
+    def from_file(cls, path: str | Path) -> BuildConfig:
+        path = Path(path)
+        try:
+            document = json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+            raise BuildConfigError(f"{path}: cannot read the build config: {exc}") from exc
+        return cls.from_json(document, source=str(path))
+
+
+def _section(kind: type, value: Any, where: str) -> Any:
+    if not isinstance(value, dict):
+        raise BuildConfigError(f"{where}: expected a JSON object, got {type(value).__name__}")
+    names = {f.name for f in fields(kind)}
+    unknown = sorted(set(value) - names)
+    if unknown:
+        raise BuildConfigError(f"{where}: unknown key(s) {unknown}; known: {sorted(names)}")
+    try:
+        return kind(**value)
+    except (TypeError, ValueError) as exc:
+        raise BuildConfigError(f"{where}: {exc}") from exc
+
+
+def _section_json(value: Any) -> dict[str, Any]:
+    return {f.name: _plain(getattr(value, f.name)) for f in dataclasses.fields(value)}
+
+
+def _plain(value: Any) -> Any:
+    if isinstance(value, float) and value in (float("inf"), float("-inf")):
+        return str(value)
+    if isinstance(value, tuple):
+        return list(value)
+    return value

@@ -1,0 +1,10 @@
+"""Errors of the build pipeline."""
+
+from __future__ import annotations
+
+from causalsplat.errors import CausalSplatError
+
+
+class BuildError(CausalSplatError):
+    """The inputs are well formed but give nothing to build from (no view sees a masked
+    Gaussian, say); the message says what was found and which option to check."""

@@ -1,0 +1,144 @@
+"""Lifting multi-view masks into a per-Gaussian feature field (the public entry points).
+
+:func:`prepare_views` prunes Gaussians of negligible opacity, builds each view's cached
+blending weights and its weighted mask matrix; :func:`lift_features` initialises the
+features (training-free uplift or random) and refines them by contrastive training;
+:func:`mask_evidence` gives each usable mask its feature ``Norm(sum W F)`` from the
+final field and the weight each Gaussian carries inside it, all the instance stage needs.
+Only :func:`lift_features` with ``iterations > 0`` imports torch.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from causalsplat.errors import InputFormatError
+from causalsplat.field.config import FieldConfig
+from causalsplat.field.types import FeatureField, MaskEvidence
+from causalsplat.field.uplift import supervision_weight, uplift_codes
+from causalsplat.field.weights import ViewMasks, mask_features, normalize_rows, view_masks
+from causalsplat.io.types import Camera, GaussianScene
+from causalsplat.masks import MaskSet
+from causalsplat.render import RasterConfig, build_contributors
+from causalsplat.render.types import Contributors
+
+_RASTER = RasterConfig()
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class LiftedViews:
+    """The views of a build, ready for lifting.
+
+    Attributes:
+        n_gaussians: N, Gaussians of the full scene.
+        active: (N,) bool, Gaussians kept by the opacity pruning.
+        contributors: per view, the blending weights of the *active* Gaussians (columns
+            index ``np.flatnonzero(active)``).
+        masks: per view, its usable masks (:class:`ViewMasks`).
+    """
+
+    n_gaussians: int
+    active: np.ndarray
+    contributors: tuple[Contributors, ...]
+    masks: tuple[ViewMasks, ...]
+
+
+def prepare_views(
+    scene: GaussianScene,
+    cameras: Sequence[Camera],
+    masksets: Sequence[MaskSet],
+    config: FieldConfig,
+    *,
+    raster: RasterConfig = _RASTER,
+    progress: Callable[[int], None] | None = None,
+) -> LiftedViews:
+    """Prune, rasterise each view once and weight its masks (module docstring)."""
+    if len(cameras) != len(masksets):
+        raise InputFormatError(f"{len(cameras)} cameras but {len(masksets)} mask sets")
+    for cam, ms in zip(cameras, masksets, strict=True):
+        if (ms.width, ms.height) != (cam.width, cam.height):
+            raise InputFormatError(
+                f"view {ms.view!r}: masks are {ms.width}x{ms.height} pixels, its camera "
+                f"{cam.width}x{cam.height}"
+            )
+    active = scene.opacities >= config.min_opacity
+    sub = scene.subset(np.flatnonzero(active))
+    rng = np.random.default_rng([config.seed, 1])
+    contribs: list[Contributors] = []
+    vms: list[ViewMasks] = []
+    for i, (cam, ms) in enumerate(zip(cameras, masksets, strict=True)):
+        contrib = build_contributors(sub, cam, config=raster)
+        valid = contrib.alpha() >= config.min_pixel_alpha if config.min_pixel_alpha > 0 else None
+        contribs.append(contrib)
+        vms.append(view_masks(ms, i, config, rng, valid=valid))
+        if progress is not None:
+            progress(i + 1)
+    return LiftedViews(scene.n, active, tuple(contribs), tuple(vms))
+
+
+def lift_features(
+    views: LiftedViews,
+    config: FieldConfig,
+    *,
+    progress: Callable[[int], None] | None = None,
+) -> FeatureField:
+    """Initialise and train the per-Gaussian features of ``views`` (module docstring)."""
+    rng = np.random.default_rng([config.seed, 2])
+    n_active = int(views.active.sum())
+    if config.init == "uplift":
+        init = uplift_codes(views.contributors, views.masks, config.feature_dim, rng)
+    else:
+        init = normalize_rows(rng.standard_normal((n_active, config.feature_dim)))
+    supervised = supervision_weight(views.contributors, views.masks) > 0
+    losses: tuple[float, ...] = ()
+    feats = init
+    if config.iterations > 0 and n_active > 0:
+        from causalsplat.field.train import train_features
+
+        feats, losses = train_features(
+            views.contributors, views.masks, init, config, progress=progress
+        )
+    full = np.zeros((views.n_gaussians, config.feature_dim), dtype=np.float32)
+    full[views.active] = normalize_rows(feats).astype(np.float32)
+    sup = np.zeros(views.n_gaussians, dtype=bool)
+    sup[views.active] = supervised
+    return FeatureField(full, views.active.copy(), sup, losses, config)
+
+
+def mask_evidence(field: FeatureField, views: LiftedViews) -> MaskEvidence:
+    """What the instance stage needs from the views, for every usable mask of every view:
+    its feature ``Norm(sum W F)`` from the final field and the blending weight each
+    Gaussian carries inside it (``sum_x W_m(x) w(x, g)``)."""
+    active_idx = np.flatnonzero(views.active)
+    active_feats = field.features[views.active].astype(np.float64)
+    feats, blocks, view_of, index_of, pixel_weight = [], [], [], [], []
+    for contrib, vm in zip(views.contributors, views.masks, strict=True):
+        if vm.n_masks == 0:
+            continue
+        matrix = contrib.matrix().astype(np.float64)
+        feats.append(mask_features(matrix @ active_feats, vm))
+        blocks.append(sp.csr_matrix(vm.weights.astype(np.float64) @ matrix))
+        view_of.append(np.full(vm.n_masks, vm.view, dtype=np.int64))
+        index_of.append(vm.mask_index)
+        pixel_weight.append(np.asarray(vm.weights.sum(axis=1), dtype=np.float64).ravel())
+    n_masks = sum(f.shape[0] for f in feats)
+    if n_masks:
+        active_w = sp.vstack(blocks).tocsr()
+        # Columns back to the full scene's Gaussian indices.
+        full = sp.csr_matrix(
+            (active_w.data, active_idx[active_w.indices], active_w.indptr),
+            shape=(n_masks, views.n_gaussians),
+        )
+    else:
+        full = sp.csr_matrix((0, views.n_gaussians), dtype=np.float64)
+    return MaskEvidence(
+        view=np.concatenate(view_of) if n_masks else np.zeros(0, np.int64),
+        index=np.concatenate(index_of) if n_masks else np.zeros(0, np.int64),
+        pixel_weight=np.concatenate(pixel_weight) if n_masks else np.zeros(0),
+        features=np.concatenate(feats) if n_masks else np.zeros((0, field.dim), np.float32),
+        gaussian_weight=full,
+    )

@@ -1,0 +1,119 @@
+"""Contrastive optimisation of per-Gaussian features through the cached-weight renderer (torch).
+
+One step takes one view (views visited in a seeded random order, each once per epoch):
+render the features ``F = W f`` (H*W, C), normalise each covered pixel, and for every mask
+``m`` with weights ``W_m``:
+
+* prototype ``p_m = Norm(sum_x W_m(x) F̂(x))``;
+* positive term ``L_pos(m) = sum_x W_m(x) (1 - F̂(x)·p_m) / sum_x W_m(x)``, which equals
+  ``1 - |sum_x W_m(x) F̂(x)| / sum_x W_m(x)`` and is computed that way;
+* negatives: covered pixels outside ``m`` and outside every mask that overlaps ``m``
+  (nested or overlapping SAM masks are not pushed apart). With ``S(x) = F̂(x)·p_m``, a
+  negative is kept when ``u < N_pos / N_neg`` (``u ~ U(0, 1)``: balances the counts) or
+  ``S(x) > τ`` (hard negatives are always kept); ``L_neg(m)`` is the mean of
+  ``max(0, S(x) - margin)`` over the kept ones;
+* loss: mean over masks of ``L_pos + λ L_neg``, minimised by Adam on ``f``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+import torch
+
+from causalsplat.field.config import FieldConfig
+from causalsplat.field.weights import ViewMasks
+from causalsplat.render.functional import render_features
+from causalsplat.render.types import Contributors
+
+
+@dataclass(frozen=True, slots=True)
+class _ViewTerms:
+    """Per-view constants of the loss (torch): see the module docstring."""
+
+    pixels: torch.Tensor  # (P,) int64 covered pixels
+    weights: torch.Tensor  # (M, P) float32 sparse COO, W_m on the covered pixels
+    weight_sums: torch.Tensor  # (M,) float32
+    negative: torch.Tensor  # (P, M) bool, pixel may serve as a negative of mask m
+    n_pos: torch.Tensor  # (M,) float32 pixels per mask
+
+
+def _view_terms(vm: ViewMasks) -> _ViewTerms:
+    w = vm.on_pixels()  # (M, P)
+    member = (w > 0).astype(np.float32).tocsr()
+    overlap = (member @ member.T) > 0  # (M, M): masks sharing a pixel (incl. itself)
+    blocked = (member.T @ overlap.astype(np.float32)).toarray() > 0  # (P, M)
+    coo = sp.coo_matrix(w)
+    indices = torch.from_numpy(np.vstack([coo.row, coo.col]).astype(np.int64))
+    weights = torch.sparse_coo_tensor(
+        indices, torch.from_numpy(coo.data.astype(np.float32)), size=w.shape,
+        check_invariants=True,
+    ).coalesce()  # fmt: skip
+    return _ViewTerms(
+        pixels=torch.from_numpy(vm.pixels.astype(np.int64)),
+        weights=weights,
+        weight_sums=torch.from_numpy(np.asarray(w.sum(axis=1)).ravel().astype(np.float32)),
+        negative=torch.from_numpy(~blocked),
+        n_pos=torch.from_numpy(np.asarray(member.sum(axis=1)).ravel().astype(np.float32)),
+    )
+
+
+def contrastive_loss(
+    rendered: torch.Tensor, terms: _ViewTerms, config: FieldConfig, generator: torch.Generator
+) -> torch.Tensor:
+    """The loss of one view (module docstring) from its (H*W, C) feature render."""
+    f = rendered[terms.pixels]
+    unit = f / f.norm(dim=1, keepdim=True).clamp_min(1e-8)
+    summed = torch.sparse.mm(terms.weights.to(f.dtype), unit)  # (M, C)
+    length = summed.norm(dim=1)
+    positive = 1.0 - length / terms.weight_sums.to(f.dtype).clamp_min(1e-12)
+    proto = summed / length.clamp_min(1e-12)[:, None]
+    sim = unit @ proto.T  # (P, M)
+    n_neg = terms.negative.sum(dim=0).to(sim.dtype)
+    ratio = terms.n_pos.to(sim.dtype) / n_neg.clamp_min(1.0)
+    u = torch.rand(sim.shape, generator=generator, dtype=sim.dtype)
+    keep = terms.negative & ((u < ratio[None, :]) | (sim.detach() > config.hard_negative))
+    hinge = torch.relu(sim - config.margin) * keep
+    negative = hinge.sum(dim=0) / keep.sum(dim=0).clamp_min(1).to(sim.dtype)
+    return (positive + config.negative_weight * negative).mean()
+
+
+def train_features(
+    contributors: Sequence[Contributors],
+    masks: Sequence[ViewMasks],
+    init: np.ndarray,
+    config: FieldConfig,
+    *,
+    progress: Callable[[int], None] | None = None,
+) -> tuple[np.ndarray, tuple[float, ...]]:
+    """Optimise ``init`` (N, C) for ``config.iterations`` steps; returns (features, losses).
+
+    Views without usable masks are skipped. ``progress(k)`` is called after each step.
+    Deterministic for a given ``config.seed`` (torch's CPU kernels are).
+    """
+    views = [i for i, vm in enumerate(masks) if vm.n_masks > 0 and vm.pixels.size > 0]
+    feats = torch.tensor(np.asarray(init, dtype=np.float32), requires_grad=True)
+    if not views or config.iterations == 0:
+        return feats.detach().numpy().astype(np.float64), ()
+    terms = {i: _view_terms(masks[i]) for i in views}
+    optimiser = torch.optim.Adam([feats], lr=config.learning_rate)
+    generator = torch.Generator().manual_seed(config.seed)
+    order_rng = np.random.default_rng(config.seed)
+    order: list[int] = []
+    losses: list[float] = []
+    for step in range(config.iterations):
+        if not order:
+            order = [views[k] for k in order_rng.permutation(len(views))]
+        v = order.pop()
+        optimiser.zero_grad(set_to_none=True)
+        loss = contrastive_loss(render_features(contributors[v], feats), terms[v], config,
+                                generator)  # fmt: skip
+        loss.backward()
+        optimiser.step()
+        losses.append(float(loss.detach()))
+        if progress is not None:
+            progress(step + 1)
+    return feats.detach().numpy().astype(np.float64), tuple(losses)

@@ -1,0 +1,206 @@
+"""3D instances from mask features: HDBSCAN clusters, cluster centres, an entity per Gaussian.
+
+1. Every usable mask of every view has a feature ``p`` (unit vector, see
+   :func:`causalsplat.field.mask_evidence`). HDBSCAN clusters them (Euclidean
+   distance between unit vectors, a monotone function of the cosine); noise masks get -1.
+   When HDBSCAN finds no cluster at all (for instance when every mask feature is the
+   same, one object seen many times) it is run again allowing a single cluster.
+2. Each cluster ``k`` has the centre ``C_k = Norm(mean of its mask features)``.
+3. Each supervised Gaussian takes ``argmax_k f·C_k`` (``assignment="feature"``, the
+   method) or the cluster whose masks hold most of its blending weight over all views
+   (``assignment="vote"``), when that score reaches ``min_similarity``; clusters that win
+   fewer than ``min_gaussians`` Gaussians are dropped and their Gaussians re-assigned
+   among the rest.
+4. Active Gaussians that no mask supervised take the entity of the nearest assigned
+   Gaussian within ``propagate_sigmas`` median scales (KD-tree), others stay -1; pruned
+   Gaussians stay -1.
+Entity ids are 0..K-1 in the order of each cluster's first mask (view order, then mask
+order), so they do not depend on HDBSCAN's label numbering.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.spatial import cKDTree
+
+from causalsplat.field.types import FeatureField, MaskEvidence
+from causalsplat.field.weights import normalize_rows
+from causalsplat.instances.config import InstanceConfig
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class InstanceAssignment:
+    """The 3D instances of a scene.
+
+    Attributes:
+        labels: (N,) int64 entity id per Gaussian, -1 unassigned.
+        mask_entity: (M,) int64 entity of each usable mask (rows of the
+            :class:`~causalsplat.field.MaskEvidence`; -1: noise, or its cluster was dropped).
+        centers: (K, C) float32 unit cluster centres ``C_k``, row ``k`` = entity ``k``.
+        score: (N,) float32 the assignment score of each Gaussian (a cosine or a vote
+            share; 0 when unassigned or propagated).
+        n_clusters: clusters HDBSCAN found (before dropping small ones).
+        n_noise_masks: masks HDBSCAN left as noise.
+    """
+
+    labels: np.ndarray
+    mask_entity: np.ndarray
+    centers: np.ndarray
+    score: np.ndarray
+    n_clusters: int
+    n_noise_masks: int
+
+    @property
+    def n_entities(self) -> int:
+        return int(self.centers.shape[0])
+
+
+def cluster_masks(features: np.ndarray, config: InstanceConfig) -> np.ndarray:
+    """(M,) int64 HDBSCAN cluster of each (M, C) mask feature, -1 noise (step 1)."""
+    x = np.asarray(features, dtype=np.float64)
+    if x.shape[0] < config.min_cluster_size:
+        return np.full(x.shape[0], -1, dtype=np.int64)
+    import hdbscan
+
+    def run(single: bool) -> np.ndarray:
+        model = hdbscan.HDBSCAN(
+            min_cluster_size=config.min_cluster_size,
+            min_samples=config.min_samples,
+            cluster_selection_method=config.selection,
+            cluster_selection_epsilon=config.selection_epsilon,
+            allow_single_cluster=single,
+            metric="euclidean",
+        )
+        return np.asarray(model.fit(x).labels_, dtype=np.int64)
+
+    labels = run(False)
+    if labels.size and labels.max() < 0:
+        labels = run(True)
+    return labels
+
+
+def assign_instances(
+    field: FeatureField,
+    evidence: MaskEvidence,
+    config: InstanceConfig,
+    *,
+    means: np.ndarray,
+    scales: np.ndarray,
+) -> InstanceAssignment:
+    """Cluster the masks and give every Gaussian an entity (module docstring).
+
+    ``means`` (N, 3) and ``scales`` (N, 3) of the scene serve the propagation to
+    Gaussians that no clustered mask covers.
+    """
+    raw = cluster_masks(evidence.features, config)
+    n_clusters = int(raw.max()) + 1 if raw.size else 0
+    # Renumber clusters by first appearance so ids do not depend on HDBSCAN's numbering.
+    _, first = np.unique(raw, return_index=True)
+    order = [int(raw[i]) for i in sorted(first) if raw[i] >= 0]
+    index_of = np.full(n_clusters + 1, -1, dtype=np.int64)
+    index_of[order] = np.arange(len(order))
+    cluster = index_of[raw]  # raw -1 reads the last slot, -1
+    feats = evidence.features.astype(np.float64)
+    centers = normalize_rows(
+        np.array([feats[cluster == c].mean(axis=0) for c in range(len(order))]).reshape(
+            -1, field.dim
+        )
+    )
+    if config.assignment == "feature":
+        rows = np.flatnonzero(field.supervised)
+        scores = field.features[rows].astype(np.float64) @ centers.T
+    else:
+        scores, rows = _vote_scores(evidence, cluster, len(order))
+    labels, score, kept = _assign(field.n, scores, rows, config)
+    remap = np.full(len(order) + 1, -1, dtype=np.int64)
+    remap[kept] = np.arange(kept.size)
+    labels = remap[labels]
+    scored = np.zeros(field.n, dtype=bool)
+    scored[rows] = True
+    labels = _propagate(labels, field.active & ~scored, field.active, means, scales, config)
+    return InstanceAssignment(
+        labels=labels,
+        mask_entity=remap[cluster],
+        centers=centers[kept].astype(np.float32),
+        score=np.where(labels >= 0, score, 0.0).astype(np.float32),
+        n_clusters=n_clusters,
+        n_noise_masks=int((raw < 0).sum()),
+    )
+
+
+def _vote_scores(
+    evidence: MaskEvidence, cluster: np.ndarray, k: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """(S, K) blending weight of each Gaussian inside the masks of each cluster, all views.
+
+    Rows are the Gaussians with some weight inside clustered masks (indices (S,)).
+    """
+    ok = np.flatnonzero(cluster >= 0)
+    onehot = sp.csr_matrix(
+        (np.ones(ok.size), (ok, cluster[ok])), shape=(evidence.n, k), dtype=np.float64
+    )
+    votes = (evidence.gaussian_weight.T.tocsr() @ onehot).toarray()  # (N, K)
+    rows = np.flatnonzero(votes.sum(axis=1) > 0)
+    return votes[rows], rows
+
+
+def _assign(
+    n: int, scores: np.ndarray, rows: np.ndarray, config: InstanceConfig
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Labels (cluster index or -1), best score, and the kept cluster indices (step 3).
+
+    ``scores`` (S, K) rank the clusters for the Gaussians ``rows``; vote scores are made
+    shares of the Gaussian's total over the kept clusters.
+    """
+    labels = np.full(n, -1, dtype=np.int64)
+    sim = np.zeros(n, dtype=np.float64)
+    kept = np.arange(scores.shape[1])
+    idx = rows
+    if idx.size == 0 or kept.size == 0:
+        return labels, sim, kept[:0]
+    share = config.assignment == "vote"
+    while True:
+        sub = scores[:, kept]
+        if share:
+            total = sub.sum(axis=1, keepdims=True)
+            sub = np.divide(sub, total, out=np.zeros_like(sub), where=total > 0)
+        best = sub.argmax(axis=1)
+        best_sim = sub[np.arange(idx.size), best]
+        ok = best_sim >= (config.min_vote_share if share else config.min_similarity)
+        counts = np.bincount(best[ok], minlength=kept.size)
+        small = counts < config.min_gaussians
+        if not small.any():
+            break
+        kept = kept[~small]
+        if kept.size == 0:
+            return labels, sim, kept
+    labels[idx[ok]] = kept[best[ok]]
+    sim[idx[ok]] = best_sim[ok]
+    return labels, sim, kept
+
+
+def _propagate(
+    labels: np.ndarray,
+    unscored: np.ndarray,
+    active: np.ndarray,
+    means: np.ndarray,
+    scales: np.ndarray,
+    config: InstanceConfig,
+) -> np.ndarray:
+    """Active Gaussians no mask scored take the nearest assigned Gaussian's entity (step 4)."""
+    todo = np.flatnonzero(unscored)
+    done = np.flatnonzero(labels >= 0)
+    if config.propagate_sigmas == 0 or todo.size == 0 or done.size == 0:
+        return labels
+    radius = config.propagate_sigmas * float(np.median(np.max(scales[active], axis=1)))
+    if not np.isfinite(radius) or radius <= 0:
+        return labels
+    pts = np.asarray(means, dtype=np.float64)
+    dist, nearest = cKDTree(pts[done]).query(pts[todo], distance_upper_bound=radius)
+    hit = np.isfinite(dist)
+    out = labels.copy()
+    out[todo[hit]] = labels[done[nearest[hit]]]
+    return out

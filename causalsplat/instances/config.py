@@ -1,0 +1,89 @@
+"""The knobs of the 3D instance assignment (HDBSCAN over mask features, then Gaussians)."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from dataclasses import asdict, dataclass
+from typing import Any, Literal
+
+from causalsplat.errors import CausalSplatError
+
+
+class InstanceConfigError(CausalSplatError, ValueError):
+    """An :class:`InstanceConfig` value is out of range; the message names the field."""
+
+
+@dataclass(frozen=True, slots=True)
+class InstanceConfig:
+    """Options of :func:`~causalsplat.instances.assign_instances`.
+
+    Attributes:
+        min_cluster_size: HDBSCAN's smallest cluster, in masks (an object must be seen
+            as a mask in at least this many views to become an entity).
+        min_samples: HDBSCAN's density neighbourhood (``None``: ``min_cluster_size``).
+        selection: HDBSCAN's cluster selection, ``eom`` (excess of mass) or ``leaf``.
+        selection_epsilon: HDBSCAN's ``cluster_selection_epsilon`` (distance between unit
+            vectors; clusters closer than this are merged). 0.4 (cosine 0.92): without
+            it, the masks of one large object seen from different sides form several
+            clusters (measured on the synthetic scenes, see docs/benchmarks.md).
+        assignment: how a Gaussian picks its entity. ``feature`` (the method's rule):
+            ``argmax_k f·C_k``, accepted when the cosine reaches ``min_similarity``.
+            ``vote``: ``argmax_k`` of the blending weight the Gaussian carries inside
+            masks of cluster ``k`` over all views, accepted when that is at least
+            ``min_vote_share`` of its weight inside clustered masks. The vote does not
+            suffer from Adam moving barely visible Gaussians as fast as visible ones;
+            the build benchmark measures both.
+        min_similarity: the cosine a ``feature`` assignment needs; below it the Gaussian
+            stays unassigned (-1).
+        min_vote_share: the share of its clustered-mask weight a ``vote`` assignment
+            needs; below it the Gaussian stays unassigned (-1).
+        min_gaussians: clusters that win fewer Gaussians are dropped (no entity).
+        propagate_sigmas: active Gaussians that no mask supervised (hidden faces, the
+            underside of a table top) take the entity of the nearest assigned Gaussian
+            within this many median Gaussian scales; 0 leaves them unassigned.
+    """
+
+    min_cluster_size: int = 3
+    min_samples: int | None = 1
+    selection: Literal["eom", "leaf"] = "eom"
+    selection_epsilon: float = 0.4
+    assignment: Literal["vote", "feature"] = "vote"
+    min_similarity: float = 0.5
+    min_vote_share: float = 0.25
+    min_gaussians: int = 8
+    propagate_sigmas: float = 3.0
+
+    def __post_init__(self) -> None:
+        samples = self.min_samples
+        checks = (
+            ("min_cluster_size", _int_at_least(self.min_cluster_size, 2)),
+            ("min_samples", samples is None or _int_at_least(samples, 1)),
+            ("selection", self.selection in ("eom", "leaf")),
+            ("selection_epsilon", _finite(self.selection_epsilon) and self.selection_epsilon >= 0),
+            ("assignment", self.assignment in ("vote", "feature")),
+            ("min_similarity", _finite(self.min_similarity) and -1 <= self.min_similarity <= 1),
+            ("min_vote_share", _finite(self.min_vote_share) and 0 <= self.min_vote_share <= 1),
+            ("min_gaussians", _int_at_least(self.min_gaussians, 1)),
+            ("propagate_sigmas", _finite(self.propagate_sigmas) and self.propagate_sigmas >= 0),
+        )  # fmt: skip
+        for name, ok in checks:
+            if not ok:
+                raise InstanceConfigError(
+                    f"InstanceConfig.{name}={getattr(self, name)!r} is out of range"
+                )
+
+    def to_json(self) -> dict[str, Any]:
+        return asdict(self)
+
+    def digest(self) -> str:
+        return hashlib.sha256(json.dumps(self.to_json(), sort_keys=True).encode()).hexdigest()
+
+
+def _finite(value: object) -> bool:
+    return isinstance(value, int | float) and math.isfinite(value)
+
+
+def _int_at_least(value: object, low: int) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool) and value >= low

@@ -1,0 +1,50 @@
+"""``causalsplat build`` through the real command line."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from tests.causalsplat.test_cli_store import assert_one_line_error, run
+
+
+def test_build_json_report_then_query_the_stored_scene(tiny_folder: Path, tmp_path: Path) -> None:
+    db = f"sqlite:///{tmp_path / 'b.db'}"
+    config = tmp_path / "fast.json"
+    config.write_text(json.dumps({"field": {"iterations": 40}}))
+    args = ["build", str(tiny_folder), "--scene", "tiny", "--config", str(config),
+            "--cache-dir", str(tmp_path / "cache")]  # fmt: skip
+    doc = json.loads(run(*args, "--json", db=db).stdout)
+    assert doc["scene_id"] == "tiny" and doc["views"] == 6 and doc["entities"] >= 3
+    assert [s["name"] for s in doc["stages"]] == ["load", "rasterize", "field", "instances",
+                                                   "graph"]  # fmt: skip
+    assert doc["peak_rss_mib"] > 0 and doc["quality"]["n_gt"] > 0
+    scenes = json.loads(run("scenes", "--json", db=db).stdout)
+    assert [s["scene_id"] for s in scenes] == ["tiny"] and scenes[0]["source"] == "build"
+    # a second build of the same id fails and leaves the stored scene alone
+    assert_one_line_error(run(*args, db=db, check=False), "already stored")
+    text = run(*args, "--if-exists", "replace", db=db).stdout
+    assert "(cached)" in text and "instance quality" in text
+    ask = json.loads(run("ask", "where can I wash my hands?", "--scene", "tiny", "--json",
+                         db=db).stdout)  # fmt: skip
+    assert [e["category"] for e in ask["entities"]] == ["sink"]
+
+
+def test_build_errors_are_one_line_and_store_nothing(tiny_folder: Path, tmp_path: Path) -> None:
+    db = f"sqlite:///{tmp_path / 'e.db'}"
+    assert_one_line_error(run("build", str(tmp_path / "missing"), db=db, check=False),
+                          "missing")  # fmt: skip
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps({"field": {"iters": 1}}))
+    assert_one_line_error(
+        run("build", str(tiny_folder), "--config", str(bad), db=db, check=False), "iters"
+    )
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    assert_one_line_error(run("build", str(empty), "--no-cache", db=db, check=False), "PLY")
+    assert json.loads(run("scenes", "--json", db=db).stdout) == []
+
+
+def test_build_has_help() -> None:
+    out = run("build", "--help").stdout
+    assert "--config" in out and "--max-views" in out and "--no-cache" in out

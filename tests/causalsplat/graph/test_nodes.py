@@ -1,0 +1,94 @@
+"""Entities from an instance assignment: geometry, category vote, colour, provenance."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from causalsplat.field import MaskEvidence
+from causalsplat.graph.colors import PALETTE, color_name
+from causalsplat.graph.nodes import NodeConfig, build_entities, build_provenance
+from causalsplat.instances import InstanceAssignment
+from causalsplat.io.types import Camera, GaussianScene
+from causalsplat.masks import MaskSet
+from graph_store import AttributeSource
+
+
+@pytest.mark.parametrize("name", sorted(PALETTE))
+def test_palette_colours_name_themselves_also_when_shaded(name: str) -> None:
+    rgb = np.array(PALETTE[name])
+    assert color_name(rgb[None]) == name
+    if name not in ("white", "gray", "black", "beige"):  # shading moves lightness only
+        assert color_name(0.85 * rgb[None]) == name
+
+
+def test_colour_of_nothing_is_none() -> None:
+    assert color_name(np.zeros((0, 3))) is None
+
+
+def _fixture() -> tuple[GaussianScene, InstanceAssignment, MaskEvidence, list[MaskSet]]:
+    means = np.array([[0, 0, 0], [1, 0, 0], [0, 2, 0], [5, 5, 5], [6, 5, 5], [9, 9, 9]], float)
+    rgb = np.array([PALETTE["red"]] * 3 + [PALETTE["blue"]] * 2 + [PALETTE["white"]])
+    scene = GaussianScene.from_points(means, rgb, np.full(6, 0.05), opacity=0.9)
+    labels = np.array([0, 0, 0, 1, 1, -1])
+    assignment = InstanceAssignment(
+        labels=labels,
+        mask_entity=np.array([0, 1, 0, -1]),
+        centers=np.eye(2, dtype=np.float32),
+        score=np.ones(6, dtype=np.float32),
+        n_clusters=3,
+        n_noise_masks=1,
+    )
+    evidence = MaskEvidence(
+        view=np.array([0, 0, 1, 1]),
+        index=np.array([0, 1, 0, 2]),
+        pixel_weight=np.array([10.0, 4.0, 6.0, 1.0]),
+        features=np.eye(4, 2, dtype=np.float32),
+        gaussian_weight=sp.csr_matrix((4, 6)),
+    )
+    m = np.zeros((3, 4, 4), dtype=bool)
+    masksets = [
+        MaskSet("a", m[:2], labels=("cup", "chair"), scores=np.array([1.0, 0.5])),
+        MaskSet("b", m, labels=("mug", "x", "object"), scores=np.array([0.5, 1.0, 1.0])),
+    ]
+    return scene, assignment, evidence, masksets
+
+
+def test_entity_geometry_category_vote_and_colour() -> None:
+    scene, assignment, evidence, masksets = _fixture()
+    entities = build_entities(scene, assignment, evidence, masksets, NodeConfig(bbox_quantile=0))
+    assert [e.id for e in entities] == [0, 1]
+    cup, chair = entities
+    # votes of entity 0: cup 10 * 1.0, mug 6 * 0.5 -> cup with 10/13
+    assert cup.category == "cup" and cup.confidence == pytest.approx(10 / 13)
+    assert cup.centroid == pytest.approx((1 / 3, 2 / 3, 0.0), abs=1e-6)
+    assert cup.bbox_min == pytest.approx((0, 0, 0)) and cup.bbox_max == pytest.approx((1, 2, 0))
+    assert cup.point_count == 3
+    attrs = {(a.key, a.value, a.source) for a in cup.attributes}
+    assert ("color", "red", AttributeSource.GEOMETRY) in attrs
+    assert ("label_vote", "cup:0.769", AttributeSource.MASK_VOTE) in attrs
+    assert chair.category == "chair" and chair.confidence == pytest.approx(1.0)
+    assert ("color", "blue", AttributeSource.GEOMETRY) in {
+        (a.key, a.value, a.source) for a in chair.attributes
+    }
+
+
+def test_unlabelled_masks_give_the_generic_category() -> None:
+    scene, assignment, evidence, masksets = _fixture()
+    bare = [MaskSet(ms.view, ms.masks) for ms in masksets]
+    entities = build_entities(scene, assignment, evidence, bare)
+    assert {e.category for e in entities} == {"object"}
+    assert all(e.confidence is None for e in entities)
+
+
+def test_provenance_records_every_mask_read() -> None:
+    _, assignment, evidence, masksets = _fixture()
+    cams = [Camera.look_at(n, [0.0, -3, 1], [0, 0, 0], [0, 0, 1], width=4, height=4,
+                           fov_y_deg=60) for n in ("a.png", "b.png")]  # fmt: skip
+    views, records = build_provenance(cams, masksets, evidence, assignment, {0, 1})
+    assert [(v.id, v.name, v.width) for v in views] == [(0, "a", 4), (1, "b", 4)]
+    assert [(r.view, r.index, r.entity, r.label) for r in records] == [
+        (0, 0, 0, "cup"), (0, 1, 1, "chair"), (1, 0, 0, "mug"), (1, 1, None, "x"),
+        (1, 2, None, "object"),
+    ]  # fmt: skip

@@ -1,0 +1,138 @@
+"""Instance assignment on hand-built evidence: clustering, both assignment rules, propagation."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from causalsplat.field import FeatureField, FieldConfig, MaskEvidence
+from causalsplat.instances import (
+    InstanceConfig,
+    InstanceConfigError,
+    assign_instances,
+    cluster_masks,
+)
+
+E1, E2 = np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])
+
+
+def _unit(x: np.ndarray) -> np.ndarray:
+    return x / np.linalg.norm(x, axis=1, keepdims=True)
+
+
+def test_identical_features_form_one_cluster() -> None:
+    labels = cluster_masks(np.tile(E1, (6, 1)), InstanceConfig())
+    assert labels.tolist() == [0] * 6
+
+
+def test_too_few_masks_are_all_noise_and_no_masks_is_fine() -> None:
+    assert cluster_masks(np.tile(E1, (2, 1)), InstanceConfig(min_cluster_size=3)).tolist() == [
+        -1,
+        -1,
+    ]
+    assert cluster_masks(np.zeros((0, 3)), InstanceConfig()).shape == (0,)
+
+
+def test_two_separated_groups_give_two_clusters() -> None:
+    rng = np.random.default_rng(0)
+    a = _unit(E1 + 0.02 * rng.standard_normal((5, 3)))
+    b = _unit(E2 + 0.02 * rng.standard_normal((5, 3)))
+    labels = cluster_masks(np.vstack([a, b]), InstanceConfig())
+    assert len(set(labels[:5].tolist())) == 1 and len(set(labels[5:].tolist())) == 1
+    assert labels[0] != labels[5] and labels.min() >= 0
+
+
+def _scene(n_extra: int = 0) -> tuple[FeatureField, MaskEvidence, np.ndarray]:
+    """Six Gaussians: 0-2 object A (masks 3-5 in views 1..3), 3-5 object B (masks 0-2).
+
+    B's masks come first, so B becomes entity 0. Gaussian 5 is drawn a little into A's
+    masks too (weight 0.2 against 1.0 in B's). Extra Gaussians are active but unseen.
+    """
+    n = 6 + n_extra
+    feats = np.zeros((n, 3), dtype=np.float32)
+    feats[:3] = E1
+    feats[3:6] = E2
+    mask_feats = np.vstack([np.tile(E2, (3, 1)), np.tile(E1, (3, 1))]).astype(np.float32)
+    w = np.zeros((6, n))
+    w[:3, 3:6] = 1.0
+    w[3:, :3] = 1.0
+    w[3:, 5] = 0.2
+    supervised = np.zeros(n, dtype=bool)
+    supervised[:6] = True
+    field = FeatureField(feats, np.ones(n, dtype=bool), supervised, (), FieldConfig(feature_dim=3))
+    evidence = MaskEvidence(
+        view=np.array([0, 1, 2, 0, 1, 2]),
+        index=np.array([0, 0, 0, 1, 1, 1]),
+        pixel_weight=np.ones(6),
+        features=mask_feats,
+        gaussian_weight=sp.csr_matrix(w),
+    )
+    means = np.zeros((n, 3))
+    means[:, 0] = np.arange(n, dtype=float)
+    return field, evidence, means
+
+
+@pytest.mark.parametrize("rule", ["vote", "feature"])
+def test_both_rules_label_the_two_objects(rule: str) -> None:
+    field, evidence, means = _scene()
+    config = InstanceConfig(assignment=rule, min_gaussians=1)  # type: ignore[arg-type]
+    out = assign_instances(field, evidence, config, means=means, scales=np.full((6, 3), 0.1))
+    assert out.labels.tolist() == [1, 1, 1, 0, 0, 0]
+    assert out.mask_entity.tolist() == [0, 0, 0, 1, 1, 1]
+    assert out.n_entities == 2 and out.n_clusters == 2 and out.n_noise_masks == 0
+    np.testing.assert_allclose(out.centers, [E2, E1], atol=1e-6)
+    if rule == "vote":  # Gaussian 5: 3.0 of its 3.6 weight lies in B's masks
+        assert out.score[5] == pytest.approx(3.0 / 3.6, rel=1e-6)
+
+
+def test_unseen_gaussians_take_the_nearest_label_within_the_radius() -> None:
+    field, evidence, means = _scene(n_extra=2)
+    means[6] = [0.0, 0.25, 0.0]  # 0.25 from Gaussian 0 (A)
+    means[7] = [0.0, 5.0, 0.0]  # far from everything
+    scales = np.full((8, 3), 0.1)
+    config = InstanceConfig(min_gaussians=1, propagate_sigmas=3.0)  # radius 0.3
+    out = assign_instances(field, evidence, config, means=means, scales=scales)
+    assert out.labels[6] == out.labels[0] == 1 and out.labels[7] == -1
+    off = assign_instances(field, evidence, InstanceConfig(min_gaussians=1, propagate_sigmas=0),
+                           means=means, scales=scales)  # fmt: skip
+    assert off.labels[6] == -1
+
+
+def test_pruned_gaussians_stay_unassigned_and_small_clusters_are_dropped() -> None:
+    field, evidence, means = _scene()
+    active = np.ones(6, dtype=bool)
+    active[0] = False
+    supervised = field.supervised & active
+    pruned = FeatureField(field.features, active, supervised, (), field.config)
+    w = evidence.gaussian_weight.toarray()
+    w[:, 0] = 0.0
+    ev = MaskEvidence(evidence.view, evidence.index, evidence.pixel_weight, evidence.features,
+                      sp.csr_matrix(w))  # fmt: skip
+    out = assign_instances(pruned, ev, InstanceConfig(min_gaussians=1), means=means,
+                           scales=np.full((6, 3), 0.1))  # fmt: skip
+    assert out.labels[0] == -1
+    # A now owns 2 Gaussians: with min_gaussians = 3 it is dropped, its masks map to -1
+    out = assign_instances(pruned, ev, InstanceConfig(min_gaussians=3), means=means,
+                           scales=np.full((6, 3), 0.1))  # fmt: skip
+    assert out.n_entities == 1 and out.labels.tolist() == [-1, -1, -1, 0, 0, 0]
+    assert out.mask_entity.tolist() == [0, 0, 0, -1, -1, -1]
+
+
+def test_no_masks_give_no_entities() -> None:
+    field, _, means = _scene()
+    empty = MaskEvidence(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0),
+                         np.zeros((0, 3), np.float32), sp.csr_matrix((0, 6)))  # fmt: skip
+    out = assign_instances(field, empty, InstanceConfig(), means=means, scales=np.ones((6, 3)))
+    assert out.n_entities == 0 and np.all(out.labels == -1)
+
+
+@pytest.mark.parametrize(
+    ("name", "value"),
+    [("min_cluster_size", 1), ("min_samples", 0), ("selection", "max"),
+     ("selection_epsilon", -0.1), ("assignment", "nearest"), ("min_similarity", 2.0),
+     ("min_vote_share", 1.5), ("min_gaussians", 0), ("propagate_sigmas", float("inf"))],
+)  # fmt: skip
+def test_instance_config_rejects_out_of_range_values(name: str, value: object) -> None:
+    with pytest.raises(InstanceConfigError, match=f"InstanceConfig.{name}"):
+        InstanceConfig(**{name: value})  # type: ignore[arg-type]

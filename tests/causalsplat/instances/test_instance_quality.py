@@ -1,0 +1,332 @@
+"""Instance quality (mean best IoU, AP50, AP25) against hand-computed values and a reference."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from causalsplat.instances.quality import InstanceQuality, instance_quality
+
+
+def close(a: float, b: float) -> bool:
+    return math.isclose(a, b, rel_tol=1e-12, abs_tol=1e-12)
+
+
+# -- exact cases -------------------------------------------------------------------------
+
+
+def test_identical_labels() -> None:
+    gt = np.array([0, 0, 1, 1, 1, -1, 2, 2, 5])
+    q = instance_quality(gt, gt)
+    assert q.n_gt == 4 and q.n_pred == 4
+    assert q.mean_best_iou == 1.0 and q.ap50 == 1.0 and q.ap25 == 1.0
+    assert q.best_iou == {0: 1.0, 1: 1.0, 2: 1.0, 5: 1.0}
+    assert q.matched == {0: 0, 1: 1, 2: 2, 5: 5}
+    assert all(type(v) is float for v in q.best_iou.values())
+    assert type(q.ap50) is float and type(q.mean_best_iou) is float
+
+
+def test_identical_up_to_permutation() -> None:
+    gt = np.array([0, 0, 1, 1, 1, -1, 2, 2, 5, 5, 5, 5])
+    bijection = {0: 7, 1: 3, 2: 40, 5: 0}
+    pred = np.array([bijection.get(int(g), -1) for g in gt])
+    q = instance_quality(pred, gt, scores={7: 0.1, 3: 0.9, 40: 0.5, 0: 0.2})
+    assert q.mean_best_iou == 1.0 and q.ap50 == 1.0 and q.ap25 == 1.0
+    assert q.matched == bijection
+
+
+def test_hand_computed_two_gt_three_predictions() -> None:
+    # element:  0  1  2  3  4  5  6  7  8  9
+    gt = np.array([1, 1, 1, 1, 1, 1, 2, 2, 2, 2])  # A = 1 (6 elements), B = 2 (4 elements)
+    pred = np.array([10, 10, 10, 10, 20, 20, 20, 30, 30, 30])
+    # IoUs:
+    #   A-10: |{0..3}| / |{0..5}|            = 4 / 6           = 2/3
+    #   A-20: |{4,5}|  / |{0..6}|            = 2 / (6+3-2)     = 2/7  (~0.286)
+    #   B-20: |{6}|    / |{4..9}|            = 1 / (4+3-1)     = 1/6
+    #   B-30: |{7,8,9}| / |{6..9}|           = 3 / 4           = 3/4
+    # best IoU: A 2/3 (pred 10), B 3/4 (pred 30); mean = (2/3 + 3/4) / 2 = 17/24
+    #
+    # scores 20: 0.9 > 10: 0.8 > 30: 0.7
+    # AP50: 20 -> best candidate A at 2/7 < 0.5: FP; 10 -> A (2/3): TP; 30 -> B (3/4): TP
+    #   tp = F T T, precision 0, 1/2, 2/3 -> interpolated 2/3, 2/3, 2/3
+    #   AP = (2/3 + 2/3) / 2 = 2/3
+    # AP25: 20 -> A at 2/7 >= 0.25: TP (takes A); 10 -> A taken, no B overlap: FP; 30 -> B: TP
+    #   tp = T F T, precision 1, 1/2, 2/3 -> interpolated 1, 2/3, 2/3
+    #   AP = (1 + 2/3) / 2 = 5/6
+    q = instance_quality(pred, gt, scores={10: 0.8, 20: 0.9, 30: 0.7})
+    assert q.n_gt == 2 and q.n_pred == 3
+    assert close(q.best_iou[1], 2 / 3) and close(q.best_iou[2], 3 / 4)
+    assert q.matched == {1: 10, 2: 30}
+    assert close(q.mean_best_iou, 17 / 24)
+    assert close(q.ap50, 2 / 3)
+    assert close(q.ap25, 5 / 6)
+
+    # default scores = sizes: 10 (4) > 20 (3) = 30 (3), the tie to the smaller id (20)
+    # AP50: 10 TP, 20 FP, 30 TP -> precision 1, 1/2, 2/3 -> interp 1, 2/3, 2/3 -> 5/6
+    # AP25: 10 takes A: TP; 20: A taken, B at 1/6 < 0.25: FP; 30: TP -> 5/6 as well
+    q = instance_quality(pred, gt)
+    assert close(q.ap50, 5 / 6) and close(q.ap25, 5 / 6)
+    assert close(q.mean_best_iou, 17 / 24)
+
+
+def test_over_segmentation_into_thirds() -> None:
+    # one GT instance of 6 split in three pairs: every IoU = 2/6 = 1/3
+    gt = np.zeros(6, dtype=np.int32)
+    pred = np.array([0, 0, 1, 1, 2, 2])
+    q = instance_quality(pred, gt)
+    assert close(q.best_iou[0], 1 / 3) and q.matched == {0: 0}
+    assert q.ap50 == 0.0
+    # AP25: the first prediction takes the GT (TP), the other two are FP:
+    # precision 1, 1/2, 1/3 -> interpolated 1, 1/2, 1/3; one recall step of 1 -> AP 1
+    assert q.ap25 == 1.0
+
+
+def test_over_segmentation_into_halves() -> None:
+    # two exact halves: IoU 2/4 = 0.5 each; the threshold is inclusive (IoU >= t), so the
+    # first half is a TP at 0.5 and the second an FP -> AP50 = AP25 = 1
+    gt = np.zeros(4, dtype=np.int64)
+    pred = np.array([3, 3, 4, 4])
+    q = instance_quality(pred, gt)
+    assert q.best_iou == {0: 0.5} and q.mean_best_iou == 0.5
+    assert q.matched == {0: 3}  # tie to the smaller predicted id
+    assert q.ap50 == 1.0 and q.ap25 == 1.0
+
+
+def test_under_segmentation() -> None:
+    # GT 0 (2 elements) and GT 1 (6 elements) merged into one prediction of 8:
+    # IoU 2/8 = 0.25 and 6/8 = 0.75, mean 0.5
+    gt = np.array([0, 0, 1, 1, 1, 1, 1, 1])
+    pred = np.full(8, 9)
+    q = instance_quality(pred, gt)
+    assert q.best_iou == {0: 0.25, 1: 0.75} and q.mean_best_iou == 0.5
+    assert q.matched == {0: 9, 1: 9}
+    # the one prediction matches GT 1 (highest IoU) at both thresholds: precision 1,
+    # recall 1/2 -> AP 1/2
+    assert q.ap50 == 0.5 and q.ap25 == 0.5
+
+
+def test_empty_prediction() -> None:
+    gt = np.array([0, 0, 1, 1])
+    q = instance_quality(np.full(4, -1), gt)
+    assert q.n_gt == 2 and q.n_pred == 0
+    assert q.mean_best_iou == 0.0 and q.ap50 == 0.0 and q.ap25 == 0.0
+    assert q.best_iou == {0: 0.0, 1: 0.0} and q.matched == {}
+
+
+def test_no_ground_truth() -> None:
+    q = instance_quality(np.array([0, 0, 1]), np.array([-1, -1, -1]))
+    assert q.n_gt == 0 and q.n_pred == 2
+    assert math.isnan(q.mean_best_iou) and math.isnan(q.ap50) and math.isnan(q.ap25)
+    j = q.to_json()
+    assert j["mean_best_iou"] is None and j["ap50"] is None and j["ap25"] is None
+    json.dumps(j, allow_nan=False)
+
+
+def test_empty_arrays() -> None:
+    q = instance_quality([], [])
+    assert q.n_gt == 0 and q.n_pred == 0 and math.isnan(q.ap50)
+
+
+def test_min_size_filter() -> None:
+    # GT 0: 5 elements, GT 1: 1 element (left out with min_size=2)
+    gt = np.array([0, 0, 0, 0, 0, 1, -1, -1])
+    # pred 7 exactly covers the small GT -> entirely on a left-out GT: ignored
+    pred = np.array([4, 4, 4, 4, 4, 7, -1, -1])
+    q = instance_quality(pred, gt, min_size=2)
+    assert q.n_gt == 1 and q.n_pred == 1
+    assert q.best_iou == {0: 1.0} and q.ap50 == 1.0
+    # without the filter, GT 1 counts and pred 7 matches it
+    q1 = instance_quality(pred, gt)
+    assert q1.n_gt == 2 and q1.n_pred == 2 and q1.ap50 == 1.0
+
+    # pred 7 now half on the left-out GT, half on unlabelled GT: 1/2 is not > 1/2, so it
+    # stays and is a false positive. Ranked 7 (FP) then 4 (TP): precision 0, 1/2 ->
+    # interpolated 1/2, 1/2 -> AP = 1/2 (one recall step of 1 at precision 1/2)
+    pred2 = np.array([4, 4, 4, 4, 4, 7, 7, -1])
+    q2 = instance_quality(pred2, gt, min_size=2, scores={4: 0.1, 7: 0.9})
+    assert q2.n_pred == 2
+    assert q2.ap50 == 0.5
+    # pred 7 with 2 of its 3 elements on the left-out GT 1 (size 2 < 3): ignored
+    gt3 = np.array([0, 0, 0, 0, 0, 1, 1, -1])
+    pred3 = np.array([4, 4, 4, 4, 4, 7, 7, 7])
+    q3 = instance_quality(pred3, gt3, min_size=3, scores={4: 0.1, 7: 0.9})
+    assert q3.n_gt == 1 and q3.n_pred == 1 and q3.ap50 == 1.0
+
+
+def test_ignore_ids() -> None:
+    gt = np.array([0, 0, 0, 1, 1, 1, 2, 2])  # ignore GT 2 (say the floor)
+    pred = np.array([5, 5, 5, 6, 6, 6, 8, 8])
+    q = instance_quality(pred, gt, ignore=[2])
+    assert q.n_gt == 2 and q.n_pred == 2
+    assert set(q.best_iou) == {0, 1} and q.ap50 == 1.0
+    # a prediction merging GT 1 and the ignored GT 2 (3 of 5 elements on GT 2): ignored
+    pred2 = np.array([5, 5, 5, 6, 6, 8, 8, 8])
+    q2 = instance_quality(pred2, gt, ignore=[2])
+    assert q2.n_pred == 2  # 5 and 6 stay, 8 is ignored
+    # GT 1: best with 6 at 2/3, pred 8 (ignored) does not count
+    assert close(q2.best_iou[1], 2 / 3) and q2.matched[1] == 6
+
+
+def test_weights() -> None:
+    # GT 1 = elements 0,1,2 with weights 1,2,3 (weight 6)
+    # pred 5 = elements 2,3 with weights 3,4 (weight 7; element 3 is unlabelled in GT)
+    # weighted IoU = 3 / (6 + 7 - 3) = 3/10; unweighted 1 / (3 + 2 - 1) = 1/4
+    gt = np.array([1, 1, 1, -1])
+    pred = np.array([-1, -1, 5, 5])
+    w = np.array([1.0, 2.0, 3.0, 4.0])
+    q = instance_quality(pred, gt, weights=w)
+    assert close(q.best_iou[1], 0.3) and close(q.mean_best_iou, 0.3)
+    assert q.ap50 == 0.0 and q.ap25 == 1.0
+    q0 = instance_quality(pred, gt)
+    assert q0.best_iou[1] == 0.25 and q0.ap25 == 1.0
+
+    # min_size is a weight when weights are given: GT 1 weighs 6 < 7, left out
+    q7 = instance_quality(pred, gt, weights=w, min_size=7)
+    assert q7.n_gt == 0 and math.isnan(q7.ap50)
+    # GT 1 has 3 elements >= 3 without weights, but weighs 0.6 < 3 with weights / 10
+    assert instance_quality(pred, gt, min_size=3).n_gt == 1
+    assert instance_quality(pred, gt, weights=w / 10, min_size=3).n_gt == 0
+
+
+def test_errors() -> None:
+    with pytest.raises(ValueError, match=r"\(3,\).*\(4,\)"):
+        instance_quality(np.zeros(3, int), np.zeros(4, int))
+    with pytest.raises(ValueError, match="integer"):
+        instance_quality(np.zeros(3), np.zeros(3, int))
+    with pytest.raises(ValueError, match="integer"):
+        instance_quality(np.zeros(3, int), np.zeros(3, bool))
+    with pytest.raises(ValueError, match="finite"):
+        instance_quality(np.zeros(3, int), np.zeros(3, int), weights=[1.0, np.nan, 1.0])
+    with pytest.raises(ValueError, match="non-negative"):
+        instance_quality(np.zeros(3, int), np.zeros(3, int), weights=[1.0, -1.0, 1.0])
+    with pytest.raises(ValueError, match="shape"):
+        instance_quality(np.zeros(3, int), np.zeros(3, int), weights=[1.0, 1.0])
+    with pytest.raises(ValueError, match="scores"):
+        instance_quality(np.array([0, 1]), np.array([0, 1]), scores={0: 1.0})
+    with pytest.raises(ValueError, match="finite"):
+        instance_quality(np.array([0, 1]), np.array([0, 1]), scores={0: 1.0, 1: math.nan})
+    with pytest.raises(ValueError, match="min_size"):
+        instance_quality(np.array([0, 1]), np.array([0, 1]), min_size=-1)
+
+
+def test_to_json() -> None:
+    q = instance_quality(np.array([0, 0, 1, 1]), np.array([4, 4, 4, 4]))
+    assert isinstance(q, InstanceQuality)
+    j = q.to_json()
+    assert j == {
+        "n_gt": 1,
+        "n_pred": 2,
+        "mean_best_iou": 0.5,
+        "ap50": 1.0,
+        "ap25": 1.0,
+        "best_iou": {"4": 0.5},
+        "matched": {"4": 0},
+    }
+    assert json.loads(json.dumps(j, allow_nan=False)) == j
+
+
+# -- property check against a slow reference ---------------------------------------------
+
+
+def reference(
+    pred: list[int],
+    gt: list[int],
+    scores: dict[int, float] | None,
+    min_size: int,
+    ignore: set[int],
+) -> tuple[int, int, float, float, float]:
+    """(n_gt, n_pred, mean best IoU, AP50, AP25) with plain Python sets."""
+    gt_sets: dict[int, set[int]] = {}
+    pred_sets: dict[int, set[int]] = {}
+    for i, (p, g) in enumerate(zip(pred, gt)):
+        if g >= 0:
+            gt_sets.setdefault(g, set()).add(i)
+        if p >= 0:
+            pred_sets.setdefault(p, set()).add(i)
+    left_out = {g for g, s in gt_sets.items() if len(s) < min_size or g in ignore}
+    left_out_elems = set().union(*(gt_sets[g] for g in left_out))
+    gts = {g: s for g, s in gt_sets.items() if g not in left_out}
+    preds = {p: s for p, s in pred_sets.items() if not len(s & left_out_elems) > len(s) / 2}
+
+    def iou(a: set[int], b: set[int]) -> float:
+        return len(a & b) / len(a | b)
+
+    best = [max((iou(s, ps) for ps in preds.values()), default=0.0) for s in gts.values()]
+    mean_best = sum(best) / len(best) if best else math.nan
+
+    def ap(t: float) -> float:
+        if not gts:
+            return math.nan
+        key = (lambda p: (-len(preds[p]), p)) if scores is None else (lambda p: (-scores[p], p))
+        taken: set[int] = set()
+        tps = []
+        for p in sorted(preds, key=key):
+            cands = [(iou(gts[g], preds[p]), -g, g) for g in gts if g not in taken]
+            cands = [c for c in cands if c[0] >= t and c[0] > 0]
+            if cands:
+                taken.add(max(cands)[2])
+            tps.append(bool(cands))
+        # VOC all-points interpolation
+        rec, prec, n_tp = [], [], 0
+        for k, tp in enumerate(tps, start=1):
+            n_tp += tp
+            rec.append(n_tp / len(gts))
+            prec.append(n_tp / k)
+        mrec = [0.0, *rec, 1.0]
+        mpre = [0.0, *prec, 0.0]
+        for i in range(len(mpre) - 2, -1, -1):
+            mpre[i] = max(mpre[i], mpre[i + 1])
+        return sum(
+            (mrec[i + 1] - mrec[i]) * mpre[i + 1]
+            for i in range(len(mrec) - 1)
+            if mrec[i + 1] != mrec[i]
+        )
+
+    return len(gts), len(preds), mean_best, ap(0.5), ap(0.25)
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_against_reference(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(0, 60))
+    n_gt_labels = int(rng.integers(1, 7))
+    gt = rng.integers(-1, n_gt_labels, size=n)
+    # predictions: a noisy copy of the GT through a relabelling, or plain random labels
+    if seed % 2:
+        pred = rng.integers(-1, int(rng.integers(1, 9)), size=n)
+    else:
+        perm = rng.permutation(20)
+        pred = np.where(gt >= 0, perm[np.maximum(gt, 0)], -1)
+        noise = rng.random(n) < 0.3
+        pred[noise] = rng.integers(-1, 20, size=int(noise.sum()))
+    min_size = int(rng.integers(0, 4))
+    ignore = {int(rng.integers(0, n_gt_labels))} if seed % 3 == 0 else set()
+    pred_ids = sorted({int(p) for p in pred if p >= 0})
+    scores = None
+    if seed % 4 == 1:
+        # few distinct values, so ties occur
+        scores = {p: float(rng.integers(0, 3)) for p in pred_ids}
+
+    q = instance_quality(pred, gt, scores=scores, min_size=min_size, ignore=ignore)
+    n_gt, n_pred, mean_best, ap50, ap25 = reference(
+        pred.tolist(), gt.tolist(), scores, min_size, ignore
+    )
+    assert (q.n_gt, q.n_pred) == (n_gt, n_pred)
+    for got, want in ((q.mean_best_iou, mean_best), (q.ap50, ap50), (q.ap25, ap25)):
+        assert (math.isnan(got) and math.isnan(want)) or close(got, want), (got, want)
+
+
+def test_large_identical() -> None:
+    rng = np.random.default_rng(0)
+    gt = rng.integers(-1, 1000, size=1_000_000)
+    relabel = rng.permutation(1000) + 5
+    pred = np.where(gt >= 0, relabel[np.maximum(gt, 0)], -1)
+    q = instance_quality(pred, gt)
+    assert q.n_gt == 1000 and q.n_pred == 1000
+    assert q.mean_best_iou == 1.0 and q.ap50 == 1.0 and q.ap25 == 1.0
+    qw = instance_quality(pred, gt, weights=rng.random(gt.size))
+    assert qw.n_gt == 1000 and qw.n_pred == 1000
+    assert close(qw.mean_best_iou, 1.0) and qw.ap50 == 1.0 and qw.ap25 == 1.0
