@@ -20,7 +20,7 @@ from typing import Any
 
 #: Benchmark modules, in report order. A module listed here that is not importable
 #: (its optional dependencies missing) is reported as skipped.
-BENCHMARKS: tuple[str, ...] = ("store", "queries", "render", "edges", "reasoning")
+BENCHMARKS: tuple[str, ...] = ("store", "queries", "render", "edges", "build", "reasoning")
 
 
 @dataclass(frozen=True, slots=True)
