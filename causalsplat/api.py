@@ -325,15 +325,29 @@ class Scene:
         return run_program(source, self.id, program, executor=executor)
 
     def evaluate(
-        self, queries_file: str | Path, *, reasoner: str | Reasoner = "offline", **options: Any
+        self,
+        queries_file: str | Path,
+        *,
+        reasoner: str | Reasoner = "offline",
+        gt_labels: str | Path | np.ndarray | None = None,
+        **options: Any,
     ) -> EvalReport:
         """Accuracy, 3D mIoU and F1 of a reasoner over a queries file (DESIGN §9), overall
-        and per reasoning type (the numbers of ``causalsplat eval``)."""
+        and per reasoning type (the numbers of ``causalsplat eval``).
+
+        ``gt_labels`` (an ``.npy`` path or an array: the GT instance of every Gaussian)
+        scores a scene built by the pipeline against its ground truth, targets being GT
+        instance ids (see :mod:`causalsplat.eval.reasoning`)."""
         from causalsplat.eval.reasoning import evaluate_queries, read_queries
 
         backend = self._reasoner(reasoner, options)
         queries = read_queries(queries_file)
-        return evaluate_queries(self._reasoning_context(), queries, backend)
+        gt = None
+        if gt_labels is not None:
+            import numpy as np
+
+            gt = np.load(gt_labels) if isinstance(gt_labels, str | Path) else gt_labels
+        return evaluate_queries(self._reasoning_context(), queries, backend, gt_labels=gt)
 
     def _reasoning_context(self) -> SceneContext:
         from causalsplat.reason import SceneContext

@@ -137,8 +137,10 @@ def build_scene(
 ) -> BuildResult:
     """Build the scene graph of a scene folder (DESIGN §9) and return it with its report.
 
-    ``cache_dir``: a directory, ``True`` for the default (``$CAUSALSPLAT_CACHE`` or
-    ``~/.cache/causalsplat``), or ``False``/``None`` for no cache. ``progress`` shows
+    ``scene_id`` defaults to the ``scene_id`` of the folder's ``queries.json`` or
+    ``objects.json``, else the folder's name. ``cache_dir``: a directory, ``True`` for the
+    default (``$CAUSALSPLAT_CACHE`` or ``~/.cache/causalsplat``), or ``False``/``None`` for
+    no cache. ``progress`` shows
     progress bars on stderr. Raises :class:`~causalsplat.errors.InputFormatError`
     (subclasses name the file) for a malformed folder or config.
     """
@@ -240,7 +242,7 @@ def _graph(
         folder.cameras, folder.masks, evidence, assignment, {e.id for e in entities}
     )
     meta = SceneMeta(
-        scene_id=scene_id or folder.root.name,
+        scene_id=scene_id or _declared_scene_id(folder) or folder.root.name,
         units=config.units,
         up_axis=config.up_axis,
         source="build",
@@ -249,6 +251,22 @@ def _graph(
     )
     return SceneGraph(meta=meta, entities=entities, relations=relations, views=views,
                       masks=masks)  # fmt: skip
+
+
+def _declared_scene_id(folder: SceneFolder) -> str | None:
+    """The ``scene_id`` of the folder's ``queries.json`` or ``objects.json``, if any."""
+    import json
+
+    for path in (folder.queries_path, folder.objects_path):
+        if path is None:
+            continue
+        try:
+            value = json.loads(path.read_text(encoding="utf-8")).get("scene_id")
+        except (OSError, UnicodeDecodeError, ValueError, AttributeError):
+            continue
+        if isinstance(value, str) and value:
+            return value
+    return None
 
 
 # -- cache encoding ----------------------------------------------------------------------

@@ -12,7 +12,12 @@ from causalsplat.cli._app import cli, db_option, echo_json, json_option
 
 @cli.command("build")
 @click.argument("scene_dir", type=click.Path(file_okay=False, path_type=Path))
-@click.option("--scene", "scene_id", help="Scene id (default: the folder's name).")
+@click.option(
+    "--scene",
+    "scene_id",
+    help="Scene id (default: the scene_id of the folder's queries.json or objects.json, "
+    "else the folder's name).",
+)
 @click.option(
     "--config",
     "config_file",

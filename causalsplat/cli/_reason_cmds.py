@@ -113,9 +113,16 @@ def ask(
 
 @cli.command("eval")
 @click.argument("queries_file", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.option(
+    "--gt-labels",
+    type=click.Path(exists=True, dir_okay=False, path_type=Path),
+    help="GT instance id per Gaussian (.npy, e.g. a scene folder's gt/gt_labels.npy): score "
+    "a built scene against its ground truth; targets are then GT instance ids.",
+)
 @_reasoner_options
 def evaluate(
     queries_file: Path,
+    gt_labels: Path | None,
     scene_id: str,
     reasoner: str,
     embeddings: bool,
@@ -136,7 +143,9 @@ def evaluate(
 
     options = _options(reasoner, embeddings, base_url, model, timeout, record, replay)
     with open_store(db_url, create=False) as store:
-        report = store.scene(scene_id).evaluate(queries_file, reasoner=reasoner, **options)
+        report = store.scene(scene_id).evaluate(
+            queries_file, reasoner=reasoner, gt_labels=gt_labels, **options
+        )
     if as_json:
         echo_json(report.to_dict())
         return

@@ -9,6 +9,13 @@ Its **3D IoU** is measured on what the scene holds:
   of different objects are disjoint, so IoU = shared points / points of the union;
 * otherwise (no points either) each entity counts one: the Jaccard index of the id sets.
 
+Scenes built by the pipeline have no external ids; they are scored against the folder's
+ground truth instead (``gt_labels``: the GT instance id of every Gaussian, as in
+``gt/gt_labels.npy``, targets being GT ids). Each entity then stands for the GT instance
+holding most of its Gaussians; a query is correct when the set of GT instances of the
+predicted entities is the target set, and its IoU is that of the predicted entities'
+Gaussians with the target instances' Gaussians (the Causal-ScanNet protocol).
+
 Both sets empty gives IoU 1. **F1** compares the id sets (precision and recall of the
 predicted entities; 1 when both are empty). Reports break every number down by the
 query's reasoning type. The ReferIt3D protocols (one target per utterance) and ScanRefer's
@@ -259,16 +266,26 @@ def iou_basis(ctx: SceneContext) -> str:
 
 
 def evaluate_queries(
-    ctx: SceneContext, queries: QueriesFile, reasoner: Reasoner, *, name: str | None = None
+    ctx: SceneContext,
+    queries: QueriesFile,
+    reasoner: Reasoner,
+    *,
+    name: str | None = None,
+    gt_labels: np.ndarray | None = None,
+    check_scene_id: bool = True,
 ) -> EvalReport:
     """Ask every query of ``queries`` on ``ctx`` with ``reasoner`` and score the answers.
 
-    Raises :class:`QueriesFileError` when the file names another scene or a target the
-    scene does not hold; a reasoner error on one query makes that query wrong."""
-    if queries.scene_id is not None and queries.scene_id != ctx.scene_id:
+    With ``gt_labels`` the scene is scored against the ground truth of its Gaussians
+    (module docstring). Raises :class:`QueriesFileError` when the file names another scene
+    (unless ``check_scene_id=False``) or a target the scene does not hold; a reasoner error
+    on one query makes that query wrong."""
+    if check_scene_id and queries.scene_id is not None and queries.scene_id != ctx.scene_id:
         raise QueriesFileError(
             f"{queries.source}: queries are for scene {queries.scene_id!r}, not {ctx.scene_id!r}"
         )
+    if gt_labels is not None:
+        return _evaluate_against_gt(ctx, queries, reasoner, name, gt_labels)
     local = {e.external_id: e.id for e in ctx.by_id.values() if e.external_id is not None}
     for q in queries.queries:
         for t in q.targets:
@@ -288,6 +305,96 @@ def evaluate_queries(
         basis,
         Score.of(outcomes),
         by_type,
+        tuple(outcomes),
+    )
+
+
+def _evaluate_against_gt(
+    ctx: SceneContext,
+    queries: QueriesFile,
+    reasoner: Reasoner,
+    name: str | None,
+    gt_labels: np.ndarray,
+) -> EvalReport:
+    import numpy as np
+
+    labels = ctx.gaussian_labels()
+    gt = np.asarray(gt_labels)
+    if labels is None:
+        raise QueriesFileError(
+            f"scene {ctx.scene_id!r} stores no per-Gaussian labels to compare with GT labels"
+        )
+    if gt.shape != labels.shape or gt.dtype.kind not in "iu":
+        raise QueriesFileError(
+            f"GT labels of shape {gt.shape} ({gt.dtype}) for a scene of {labels.shape[0]}"
+            " Gaussians; expected one integer per Gaussian"
+        )
+    present = {str(int(i)) for i in np.unique(gt[gt >= 0])}
+    for q in queries.queries:
+        missing = [t for t in q.targets if t not in present]
+        if missing:
+            raise QueriesFileError(
+                f"{queries.source}: query {q.id!r}: target(s) {missing} label no Gaussian"
+            )
+    # entity -> the GT instance holding most of its Gaussians
+    stand_for: dict[int, str] = {}
+    for e in ctx.by_id.values():
+        own = gt[labels == e.id]
+        own = own[own >= 0]
+        if own.size:
+            values, counts = np.unique(own, return_counts=True)
+            stand_for[e.id] = str(int(values[np.argmax(counts)]))
+    outcomes = []
+    for q in queries.queries:
+        start = time.perf_counter()
+        target_mask = np.isin(gt, np.asarray([int(t) for t in q.targets], dtype=gt.dtype))
+        try:
+            answer = reasoner.answer(q.text, ctx)
+        except (ReasonError, QueryError, GraphStoreError) as exc:
+            outcomes.append(
+                QueryOutcome(
+                    q.id,
+                    q.text,
+                    q.type,
+                    q.targets,
+                    (),
+                    False,
+                    mask_iou(np.zeros_like(target_mask), target_mask),
+                    0.0,
+                    None,
+                    None,
+                    str(exc),
+                    time.perf_counter() - start,
+                )
+            )
+            continue
+        seconds = time.perf_counter() - start
+        predicted = list(answer.entity_ids)
+        as_gt = tuple(stand_for.get(i, f"#{i}") for i in predicted)
+        pred_mask = np.isin(labels, np.asarray(predicted, dtype=labels.dtype))
+        outcomes.append(
+            QueryOutcome(
+                q.id,
+                q.text,
+                q.type,
+                q.targets,
+                as_gt,
+                set(as_gt) == set(q.targets),
+                mask_iou(pred_mask, target_mask),
+                set_f1(as_gt, q.targets),
+                answer.reasoner,
+                answer.fallback,
+                None,
+                seconds,
+            )
+        )
+    by_type = {t: Score.of([o for o in outcomes if o.type == t]) for t in QUERY_TYPES}
+    return EvalReport(
+        ctx.scene_id,
+        name or getattr(reasoner, "name", type(reasoner).__name__),
+        "gaussians (GT labels)",
+        Score.of(outcomes),
+        {t: s for t, s in by_type.items() if s.n},
         tuple(outcomes),
     )
 

@@ -5,6 +5,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
+
 from tests.causalsplat.test_cli_store import assert_one_line_error, run
 
 
@@ -12,22 +14,39 @@ def test_build_json_report_then_query_the_stored_scene(tiny_folder: Path, tmp_pa
     db = f"sqlite:///{tmp_path / 'b.db'}"
     config = tmp_path / "fast.json"
     config.write_text(json.dumps({"field": {"iterations": 40}}))
-    args = ["build", str(tiny_folder), "--scene", "tiny", "--config", str(config),
+    # no --scene: the id the folder's queries.json declares
+    args = ["build", str(tiny_folder), "--config", str(config),
             "--cache-dir", str(tmp_path / "cache")]  # fmt: skip
     doc = json.loads(run(*args, "--json", db=db).stdout)
-    assert doc["scene_id"] == "tiny" and doc["views"] == 6 and doc["entities"] >= 3
+    assert doc["scene_id"] == "synth-tiny-0" and doc["views"] == 6 and doc["entities"] >= 3
     assert [s["name"] for s in doc["stages"]] == ["load", "rasterize", "field", "instances",
                                                    "graph"]  # fmt: skip
     assert doc["peak_rss_mib"] > 0 and doc["quality"]["n_gt"] > 0
     scenes = json.loads(run("scenes", "--json", db=db).stdout)
-    assert [s["scene_id"] for s in scenes] == ["tiny"] and scenes[0]["source"] == "build"
+    assert [s["scene_id"] for s in scenes] == ["synth-tiny-0"] and scenes[0]["source"] == "build"
     # a second build of the same id fails and leaves the stored scene alone
     assert_one_line_error(run(*args, db=db, check=False), "already stored")
     text = run(*args, "--if-exists", "replace", db=db).stdout
     assert "(cached)" in text and "instance quality" in text
-    ask = json.loads(run("ask", "where can I wash my hands?", "--scene", "tiny", "--json",
+    ask = json.loads(run("ask", "where can I wash my hands?", "--scene", "synth-tiny-0", "--json",
                          db=db).stdout)  # fmt: skip
     assert [e["category"] for e in ask["entities"]] == ["sink"]
+    # the built scene scored against the folder's GT: targets are GT instance ids
+    queries = json.loads((tiny_folder / "queries.json").read_text())["queries"]
+    gt = str(tiny_folder / "gt" / "gt_labels.npy")
+    doc = json.loads(run("eval", str(tiny_folder / "queries.json"), "--scene", "synth-tiny-0",
+                         "--gt-labels", gt, "--json", db=db).stdout)  # fmt: skip
+    assert doc["n"] == len(queries) and 0 < doc["accuracy"] <= 1 and 0 < doc["miou"] <= 1
+    wash = next(q for q in doc["per_query"] if q["correct"])
+    assert set(wash["predicted"]) == set(wash["targets"])
+    without = run("eval", str(tiny_folder / "queries.json"), "--scene", "synth-tiny-0", db=db,
+                  check=False)  # fmt: skip
+    assert_one_line_error(without, "is not in scene")
+    short = tmp_path / "short.npy"
+    np.save(short, np.zeros(3, dtype=np.int32))
+    bad = run("eval", str(tiny_folder / "queries.json"), "--scene", "synth-tiny-0",
+              "--gt-labels", str(short), db=db, check=False)  # fmt: skip
+    assert_one_line_error(bad, "GT labels")
 
 
 def test_build_errors_are_one_line_and_store_nothing(tiny_folder: Path, tmp_path: Path) -> None:

@@ -93,7 +93,7 @@ def test_a_changed_mask_file_invalidates_the_field(tiny_folder: Path, tmp_path: 
     np.savez(first, **data)
     out = build_scene(folder, config=FAST, cache_dir=cache)
     assert ("field", False) in [(s.name, s.cached) for s in out.stages]
-    assert out.graph.scene_id == "copy"
+    assert out.graph.scene_id == "synth-tiny-0"  # declared by the folder's queries.json
 
 
 def test_no_cache_and_deterministic(built: BuildResult, tiny_folder: Path) -> None:
