@@ -118,12 +118,12 @@ def read_scene_folder(path: str | Path, *, max_views: int | None = None) -> Scen
     if not root.is_dir():
         what = "is not a folder" if root.exists() else "does not exist"
         raise SceneFolderFormatError(f"scene folder {root} {what}")
-    ply_path = _find_ply(root)
+    ply_path = find_ply(root)
     try:
         gaussians = read_gaussian_ply(ply_path).scene
     except (InputFormatError, OSError) as exc:
         raise SceneFolderFormatError(f"scene folder {root}: bad PLY: {exc}") from exc
-    cameras_path, all_cameras = _read_cameras(root)
+    cameras_path, all_cameras = read_cameras(root)
     with_masks, skipped = _match_masks(root, all_cameras)
     if max_views is not None:
         with_masks = [with_masks[i] for i in _spaced(len(with_masks), max_views)]
@@ -143,7 +143,8 @@ def read_scene_folder(path: str | Path, *, max_views: int | None = None) -> Scen
     )
 
 
-def _find_ply(root: Path) -> Path:
+def find_ply(root: Path) -> Path:
+    """The folder's 3DGS PLY (top-level file first, else the largest INRIA iteration)."""
     top = root / "point_cloud.ply"
     if top.is_file():
         return top
@@ -162,7 +163,8 @@ def _find_ply(root: Path) -> Path:
     return max(found)[1]
 
 
-def _read_cameras(root: Path) -> tuple[Path, tuple[Camera, ...]]:
+def read_cameras(root: Path) -> tuple[Path, tuple[Camera, ...]]:
+    """The folder's camera source (``sparse/0`` or ``transforms.json``) and its cameras."""
     sparse, transforms = root / "sparse" / "0", root / "transforms.json"
     if not sparse.is_dir() and not transforms.is_file():
         raise SceneFolderFormatError(

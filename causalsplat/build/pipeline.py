@@ -247,7 +247,7 @@ def _graph(
         up_axis=config.up_axis,
         source="build",
         config_hash=cache_key(config.to_json()),
-        provenance=tuple(sorted(hashes.items())),
+        provenance=(*sorted(hashes.items()), ("source_dir", str(folder.root))),
     )
     return SceneGraph(meta=meta, entities=entities, relations=relations, views=views,
                       masks=masks)  # fmt: skip

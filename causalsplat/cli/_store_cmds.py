@@ -101,15 +101,29 @@ def scenes(db_url: str, as_json: bool) -> None:
 @click.option(
     "--format",
     "fmt",
-    type=click.Choice(["turtle", "ntriples", "jsonld"]),
+    type=click.Choice(["turtle", "ntriples", "jsonld", "ply", "masks", "png"]),
     default="turtle",
     show_default=True,
+    help="RDF (turtle, ntriples, jsonld; any scenes), or for one built scene: ply (the 3DGS "
+    "PLY with an entity_id property), masks (per-view PNG masks of --ask's answer), png (a "
+    "top-down figure of the scene graph).",
 )
 @click.option(
-    "-o", "--output", type=click.Path(dir_okay=False, path_type=Path), default=None,
-    help="Output file (default: stdout).",
+    "-o", "--output", type=click.Path(path_type=Path), default=None,
+    help="Output file (RDF: default stdout; ply, png: required), or folder (masks).",
 )  # fmt: skip
-@click.option("--no-evidence", is_flag=True, help="Leave out relation evidence nodes.")
+@click.option("--no-evidence", is_flag=True, help="Leave out relation evidence nodes (RDF).")
+@click.option(
+    "--source", type=click.Path(file_okay=False, path_type=Path), default=None,
+    help="The scene folder the scene was built from (default: the one recorded at build time).",
+)  # fmt: skip
+@click.option(
+    "--per-entity", "per_entity", type=click.Path(file_okay=False, path_type=Path),
+    default=None, help="ply: also write one PLY per entity into this folder.",
+)  # fmt: skip
+@click.option(
+    "--ask", "question", default=None, help="masks: the instruction whose answer to draw."
+)
 @db_option
 @json_option
 def export(
@@ -117,10 +131,16 @@ def export(
     fmt: str,
     output: Path | None,
     no_evidence: bool,
+    source: Path | None,
+    per_entity: Path | None,
+    question: str | None,
     db_url: str,
     as_json: bool,
 ) -> None:
-    """Export stored scenes as RDF (Turtle, N-Triples or JSON-LD)."""
+    """Export stored scenes as RDF, or a built scene as a labelled PLY, answer masks or a figure."""
+    if fmt in ("ply", "masks", "png"):
+        _export_built(scene_ids, fmt, output, source, per_entity, question, db_url, as_json)
+        return
     with _open(db_url) as store:
         ids = list(scene_ids) or None
         if ids:
@@ -138,6 +158,46 @@ def export(
         echo_json({"path": str(output), "format": fmt, "bytes": len(text.encode("utf-8"))})
     else:
         click.echo(f"wrote {output} ({fmt})")
+
+
+def _export_built(
+    scene_ids: tuple[str, ...],
+    fmt: str,
+    output: Path | None,
+    source: Path | None,
+    per_entity: Path | None,
+    question: str | None,
+    db_url: str,
+    as_json: bool,
+) -> None:
+    from causalsplat.export import draw_scene_graph, export_answer_masks, export_labelled_ply
+
+    if len(scene_ids) != 1:
+        fail(f"--format {fmt} exports one scene: pass exactly one --scene ID")
+    if output is None:
+        fail(f"--format {fmt} needs -o PATH")
+    if fmt == "masks" and not question:
+        fail("--format masks draws the answer to an instruction: pass --ask TEXT")
+    with _open(db_url) as store:
+        scene = store.scene(scene_ids[0])
+        graph = scene.graph
+        extra: dict[str, Any] = {}
+        if fmt == "ply":
+            paths = export_labelled_ply(graph, scene.gaussian_labels(), output, source=source,
+                                        per_entity_dir=per_entity)  # fmt: skip
+        elif fmt == "masks":
+            answer = scene.ask(question)
+            extra = {"answer": list(answer.entity_ids), "explanation": answer.explanation}
+            paths = export_answer_masks(graph, scene.gaussian_labels(), answer.entity_ids,
+                                        output, source=source)  # fmt: skip
+        else:
+            paths = [draw_scene_graph(graph, output)]
+    if as_json:
+        echo_json({"format": fmt, "paths": [str(p) for p in paths], **extra})
+        return
+    if "answer" in extra:
+        click.echo(f"answer: entities {extra['answer']}")
+    click.echo(f"wrote {paths[0]}" + (f" and {len(paths) - 1} more" if len(paths) > 1 else ""))
 
 
 def _parse_binding(text: str) -> tuple[str, Any]:
