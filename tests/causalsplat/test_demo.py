@@ -47,7 +47,7 @@ def test_demo_builds_exports_and_answers_every_level_correctly(tmp_path: Path) -
         target = np.isin(gt, [int(t) for t in q["targets"]])
         iou = (predicted & target).sum() / (predicted | target).sum()
         assert q["iou"] == iou and iou > 0.3
-    assert [s["name"] for s in doc["build"]["stages"]][0] == "load"
+    assert doc["build"]["stages"][0]["name"] == "load"
 
 
 def test_demo_text_output(tmp_path: Path) -> None:
