@@ -31,6 +31,8 @@ class BenchReport:
     title: str
     markdown: str
     data: dict[str, Any] = field(default_factory=dict)
+    #: PNG plots by file name, written next to the report (the markdown links them).
+    images: dict[str, bytes] = field(default_factory=dict)
 
 
 def _section(name: str, body: str) -> str:
@@ -81,4 +83,6 @@ def run_benchmarks(
         reports.append(report)
         if report_path is not None:
             update_report(report_path, report, command=command)
+            for file_name, png in report.images.items():
+                (report_path.parent / file_name).write_bytes(png)
     return reports

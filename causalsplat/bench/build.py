@@ -245,4 +245,18 @@ def run(*, quick: bool = False) -> BenchReport:
         *sweep,
     ]
     data = {"headline": head_rows, "ablation": abl_rows, "sweeps": sweep_rows}
-    return BenchReport(NAME, "Build: 3D instances from masks", "\n".join(md), data)
+    from causalsplat.bench._plot import Point, scatter_png
+
+    points = [
+        Point(r["field_s"] + r["raster_s"], 1 - r["iou"], r["value"], r["knob"])
+        for r in sweep_rows
+        if r["knob"] != "default"
+    ]
+    images = {}
+    if not quick:
+        images["bench-build-sweeps.png"] = scatter_png(
+            points,
+            "build, small scene: error (1 - mean best IoU) against run time; filled = Pareto front",
+        )
+        md += ["", "![error against run time](bench-build-sweeps.png)"]
+    return BenchReport(NAME, "Build: 3D instances from masks", "\n".join(md), data, images)
