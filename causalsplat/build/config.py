@@ -48,11 +48,15 @@ class BuildConfig:
         max_views: use at most this many views, evenly spaced (``None``: all).
         units: the scene's length unit, stored with the scene.
         up_axis: the vertical axis (``x``, ``y`` or ``z``) for the spatial relations.
+        labeler: who names the entities: ``masks`` (the vote of the mask labels; masks
+            without labels give ``object``) or ``vlm`` (an OpenAI-compatible server, set
+            by ``CAUSALSPLAT_VLM_*``, looks at each entity's best mask crop).
     """
 
     max_views: int | None = None
     units: str = "m"
     up_axis: str = "z"
+    labeler: str = "masks"
     raster: RasterConfig = dataclasses.field(default_factory=RasterConfig)
     field: FieldConfig = dataclasses.field(default_factory=FieldConfig)
     instances: InstanceConfig = dataclasses.field(default_factory=InstanceConfig)
@@ -66,12 +70,14 @@ class BuildConfig:
             raise BuildConfigError(f"max_views={self.max_views!r} must be a positive integer")
         if self.up_axis not in ("x", "y", "z"):
             raise BuildConfigError(f"up_axis={self.up_axis!r} must be 'x', 'y' or 'z'")
+        if self.labeler not in ("masks", "vlm"):
+            raise BuildConfigError(f"labeler={self.labeler!r} must be 'masks' or 'vlm'")
         if not isinstance(self.units, str) or not self.units:
             raise BuildConfigError(f"units={self.units!r} must be a non-empty string")
 
     def to_json(self) -> dict[str, Any]:
         out: dict[str, Any] = {"max_views": self.max_views, "units": self.units,
-                               "up_axis": self.up_axis}  # fmt: skip
+                               "up_axis": self.up_axis, "labeler": self.labeler}  # fmt: skip
         for name in _SECTIONS:
             out[name] = _section_json(getattr(self, name))
         return out

@@ -40,6 +40,7 @@ from causalsplat.field import (
     prepare_views,
 )
 from causalsplat.graph import build_relations
+from causalsplat.graph.labeling import Labeler, label_entities
 from causalsplat.graph.nodes import build_entities, build_provenance
 from causalsplat.instances import (
     InstanceAssignment,
@@ -134,15 +135,17 @@ def build_scene(
     config: BuildConfig | None = None,
     cache_dir: str | Path | bool | None = True,
     progress: bool = False,
+    labeler: Labeler | None = None,
 ) -> BuildResult:
     """Build the scene graph of a scene folder (DESIGN §9) and return it with its report.
 
     ``scene_id`` defaults to the ``scene_id`` of the folder's ``queries.json`` or
     ``objects.json``, else the folder's name. ``cache_dir``: a directory, ``True`` for the
     default (``$CAUSALSPLAT_CACHE`` or ``~/.cache/causalsplat``), or ``False``/``None`` for
-    no cache. ``progress`` shows
-    progress bars on stderr. Raises :class:`~causalsplat.errors.InputFormatError`
-    (subclasses name the file) for a malformed folder or config.
+    no cache. ``progress`` shows progress bars on stderr. ``labeler`` names the entities
+    from their crops (default: the VLM one when ``config.labeler == "vlm"``, else none:
+    the mask vote stands). Raises :class:`~causalsplat.errors.InputFormatError` (subclasses
+    name the file) for a malformed folder or config, and the VLM errors of the labeller.
     """
     config = config or BuildConfig()
     cache = StageCache(default_cache_dir() if cache_dir is True else (cache_dir or None))
@@ -172,8 +175,12 @@ def build_scene(
                 means=folder.gaussians.means, scales=folder.gaussians.scales,
             )  # fmt: skip
             cache.put("instances", inst_key, _encode_assignment(assignment))
+    if labeler is None and config.labeler == "vlm":
+        from causalsplat.openai_compat import VLMLabeler
+
+        labeler = VLMLabeler()
     with stages.stage("graph"):
-        graph = _graph(folder, evidence, assignment, config, scene_id, hashes)
+        graph = _graph(folder, evidence, assignment, config, scene_id, hashes, labeler)
     quality = None
     if folder.gt_labels is not None:
         quality = instance_quality(assignment.labels, folder.gt_labels)
@@ -235,8 +242,12 @@ def _graph(
     config: BuildConfig,
     scene_id: str | None,
     hashes: dict[str, str],
+    labeler: Labeler | None,
 ) -> SceneGraph:
     entities = build_entities(folder.gaussians, assignment, evidence, folder.masks, config.nodes)
+    if labeler is not None:
+        entities = label_entities(entities, assignment, evidence, folder.masks,
+                                  lambda v: view_image(folder, v), labeler)  # fmt: skip
     relations = build_relations(entities, config.edges, up_axis=config.up_axis)
     views, masks = build_provenance(
         folder.cameras, folder.masks, evidence, assignment, {e.id for e in entities}
@@ -251,6 +262,22 @@ def _graph(
     )
     return SceneGraph(meta=meta, entities=entities, relations=relations, views=views,
                       masks=masks)  # fmt: skip
+
+
+def view_image(folder: SceneFolder, view: int) -> np.ndarray:
+    """View ``view``'s image: ``images/<stem>.*`` when the folder has it, else rendered."""
+    cam = folder.cameras[view]
+    stem = folder.masks[view].view
+    for path in sorted((folder.root / "images").glob(f"{stem}.*")):
+        from PIL import Image
+
+        with Image.open(path) as im:
+            rgb = np.asarray(im.convert("RGB"))
+        if rgb.shape[:2] == (cam.height, cam.width):
+            return rgb
+    from causalsplat.render import render_rgb
+
+    return render_rgb(folder.gaussians, cam)
 
 
 def _declared_scene_id(folder: SceneFolder) -> str | None:

@@ -38,6 +38,13 @@ from causalsplat.cli._app import cli, db_option, echo_json, json_option
     help="Stage cache directory (default $CAUSALSPLAT_CACHE or ~/.cache/causalsplat).",
 )
 @click.option("--no-cache", is_flag=True, help="Compute every stage; read and write no cache.")
+@click.option(
+    "--labeler",
+    type=click.Choice(["masks", "vlm"]),
+    default=None,
+    help="Who names the entities: the mask labels' vote (default) or a VLM server "
+    "($CAUSALSPLAT_VLM_BASE_URL, $CAUSALSPLAT_VLM_MODEL) looking at each entity's crop.",
+)
 @db_option
 @json_option
 def build(
@@ -48,6 +55,7 @@ def build(
     if_exists: str,
     cache_dir: Path | None,
     no_cache: bool,
+    labeler: str | None,
     db_url: str,
     as_json: bool,
 ) -> None:
@@ -65,6 +73,8 @@ def build(
     config = BuildConfig.from_file(config_file) if config_file else BuildConfig()
     if max_views is not None:
         config = dataclasses.replace(config, max_views=max_views)
+    if labeler is not None:
+        config = dataclasses.replace(config, labeler=labeler)
     cache: Path | bool = False if no_cache else (cache_dir or True)
     with open_store(db_url) as store:
         scene = store.build(
