@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from causalsplat.eval.reasoning import box_iou, referit_correct
+from causalsplat.graph import EdgeConfig
 from causalsplat.reason.context import SceneContext
 from causalsplat.reason.errors import ReasonError
 from causalsplat.reason.reasoner import Reasoner
@@ -78,11 +79,12 @@ def objects_document(scan: str, root: Path = DATA) -> dict[str, Any]:
 class ScanGraphs:
     """Scans ingested into one store (built on first use), as reasoner contexts."""
 
-    def __init__(self, url: str, root: Path = DATA) -> None:
+    def __init__(self, url: str, root: Path = DATA, edges: EdgeConfig | None = None) -> None:
         from causalsplat.api import open_store
 
         self.store = open_store(url)
         self.root = root
+        self.edges = edges
         self._contexts: dict[str, SceneContext] = {}
         self.ingest_s = 0.0
 
@@ -93,7 +95,7 @@ class ScanGraphs:
 
             start = time.perf_counter()
             doc = objects_document(scan, self.root)
-            graph = objects_to_scene_graph(parse_objects(doc, source=scan))
+            graph = objects_to_scene_graph(parse_objects(doc, source=scan), config=self.edges)
             self.store.save_scene(graph, if_exists="replace")
             self.ingest_s += time.perf_counter() - start
             ctx = self._contexts[scan] = SceneContext(self.store.graph_store.load_scene(scan))
