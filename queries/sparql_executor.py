@@ -9,10 +9,10 @@ rests on the entities added in the previous round). The geometric rules of
 :mod:`queries.semantics` are written into ``FILTER`` / ``BIND`` expressions; the scene centre
 comes from one aggregate query.
 
-The executor reads the scene's distinct categories, captions and attribute pairs, and its
-centre, once and keeps them: it assumes the endpoint's data does not change while it is in
-use (true of :class:`graph_store.rdf.RdfView` and of the stores :meth:`from_graph` builds);
-call :meth:`SparqlExecutor.refresh` otherwise.
+The executor reads the scene's entity ids, distinct categories, captions and attribute
+pairs, and its centre, once and keeps them: it assumes the endpoint's data does not change
+while it is in use (true of :class:`graph_store.rdf.RdfView` and of the stores
+:meth:`from_graph` builds); call :meth:`SparqlExecutor.refresh` otherwise.
 """
 
 from __future__ import annotations
@@ -95,7 +95,8 @@ class SparqlExecutor(Executor):
         return cls(endpoint_for([graph], backend), graph.scene_id, config)
 
     def refresh(self) -> None:
-        """Forget the distinct strings and the centre read from the endpoint."""
+        """Forget the scene facts read from the endpoint (its entity ids, distinct strings
+        and centre); call it when the endpoint's data changed."""
         self.cache.clear()
 
     def _execute(self, program: GraphQuery) -> QueryResult:
@@ -108,6 +109,16 @@ class SparqlExecutor(Executor):
             self.cache[key] = self.endpoint.select(text)
         rows: list[tuple[Any, ...]] = self.cache[key]
         return rows
+
+    def scene_ids(self) -> frozenset[int]:
+        """The ids of every entity of the scene (read once, like the other scene facts)."""
+        if "scene_ids" not in self.cache:
+            text = select_entities(self.patterns.in_scene("e"), distinct=False)
+            self.cache["scene_ids"] = frozenset(
+                self.patterns.entity_id(iri) for iri in self.endpoint.iris(text)
+            )
+        ids: frozenset[int] = self.cache["scene_ids"]
+        return ids
 
     def strings(self, prop: str) -> list[str]:
         body = f"{self.patterns.in_scene('e')}?e csg:{prop} ?v .\n"
@@ -199,7 +210,7 @@ class _SparqlRun:
 
     def _scene(self, i: int, step: Step, ins: list[frozenset[int]]) -> RunValue:
         self.whole.add(i)
-        return self.ids(select_entities(self.p.in_scene("e"), distinct=False))
+        return self.x.scene_ids()
 
     def _filter_category(self, i: int, step: Step, ins: list[frozenset[int]]) -> RunValue:
         cats = values(

@@ -97,3 +97,23 @@ def test_the_query_path_never_imports_torch() -> None:
         [sys.executable, "-c", SCRIPT], capture_output=True, text=True, cwd=REPO_ROOT, check=True
     )
     assert proc.stdout.strip() == "", f"imported: {proc.stdout.strip()}"
+
+
+def test_sparql_executor_reads_scene_facts_once_until_refreshed() -> None:
+    from graph_store import Entity, SceneGraph, SceneMeta
+
+    graph = SceneGraph(
+        meta=SceneMeta(scene_id="s"),
+        entities=(
+            Entity(1, "table", (0, 0, 0.4), (-0.5, -0.5, 0), (0.5, 0.5, 0.8)),
+            Entity(2, "cup", (0, 0, 0.85), (-0.05, -0.05, 0.8), (0.05, 0.05, 0.9)),
+        ),
+    )
+    executor = SparqlExecutor.from_graph(graph)
+    program = {"query_type": "intrinsic", "steps": [{"op": "scene"}], "answer_step": 0}
+    assert executor.run(program).answer == (1, 2)
+    assert executor.cache["scene_ids"] == frozenset({1, 2})
+    executor.cache["scene_ids"] = frozenset({1})  # what a stale cache would hold
+    assert executor.run(program).answer == (1,)
+    executor.refresh()
+    assert executor.run(program).answer == (1, 2)
