@@ -1,9 +1,9 @@
 """Naming an entity's colour from its Gaussians: the nearest basic colour term in CIELAB.
 
 The palette holds the eleven basic colour terms of Berlin and Kay plus ``beige`` and
-``teal`` (the names our synthetic rooms and typical referring expressions use), as sRGB
-in [0, 1]. A median colour darker or lighter than every palette entry still gets the
-nearest one; shading (faces at 75-100 % brightness) moves mostly L*, so lightness counts
+``teal`` (names typical referring expressions use), as sRGB in [0, 1]; the synthetic
+rooms are painted from the same palette. A median colour darker or lighter than every
+palette entry still gets the nearest one; shading (faces at 75-100 % brightness) moves mostly L*, so lightness counts
 half as much as the two chroma axes.
 """
 

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from enum import StrEnum
 
 from causalsplat.errors import CausalSplatError
+from causalsplat.graph.colors import PALETTE
 
 Vec3 = tuple[float, float, float]
 
@@ -32,22 +33,9 @@ class Kind(StrEnum):
     SMALL = "small"  # rests on furniture or on other small objects
 
 
-#: Named colours (linear-ish sRGB in [0, 1]).
-COLORS: dict[str, Vec3] = {
-    "red": (0.80, 0.17, 0.15),
-    "orange": (0.92, 0.52, 0.15),
-    "yellow": (0.93, 0.83, 0.22),
-    "green": (0.25, 0.62, 0.28),
-    "teal": (0.15, 0.55, 0.56),
-    "blue": (0.20, 0.35, 0.80),
-    "purple": (0.52, 0.30, 0.68),
-    "pink": (0.92, 0.55, 0.68),
-    "white": (0.92, 0.92, 0.90),
-    "gray": (0.55, 0.55, 0.57),
-    "black": (0.12, 0.12, 0.13),
-    "brown": (0.48, 0.31, 0.18),
-    "beige": (0.85, 0.77, 0.60),
-}
+#: Named colours (sRGB in [0, 1]): the palette entities' colours are named from, so a
+#: generated room's colours read back as the names it was made with.
+COLORS: dict[str, Vec3] = dict(PALETTE)
 
 
 @dataclass(frozen=True, slots=True)
