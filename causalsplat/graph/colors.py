@@ -3,8 +3,8 @@
 The palette holds the eleven basic colour terms of Berlin and Kay plus ``beige`` and
 ``teal`` (names typical referring expressions use), as sRGB in [0, 1]; the synthetic
 rooms are painted from the same palette. A median colour darker or lighter than every
-palette entry still gets the nearest one; shading (faces at 75-100 % brightness) moves mostly L*, so lightness counts
-half as much as the two chroma axes.
+palette entry still gets the nearest one; shading (faces at 75-100 % brightness) moves
+mostly L*, so lightness counts half as much as the two chroma axes.
 """
 
 from __future__ import annotations
