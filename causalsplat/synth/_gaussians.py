@@ -2,12 +2,13 @@
 
 Each entity gets ``max(min_gaussians_per_object, f * w_kind * area)`` Gaussians, where
 ``area`` is the area of its sampled faces, ``w_kind`` the density weight of its kind
-(structure, furniture, small) and ``f`` the one factor that makes the total meet the
-budget. Faces sampled: the floor's top, each wall's inner face, and every face of the other
-boxes except the bottom. Points are stratified on a jittered grid per face; each Gaussian is
-nearly isotropic, with standard deviation ``gaussian_scale`` times the grid spacing, and has
-the entity's colour, shaded per face (top 1.0, x faces 0.85, y faces 0.75), plus a little
-noise.
+(structure, furniture, small) and ``f`` the one factor that makes the total meet the budget.
+Faces sampled: the floor's top, each wall's inner face, and every face of the other boxes
+except the bottom. Points are stratified on a jittered grid per face; each Gaussian is a
+flat disc on its face, as trained 3DGS makes them: standard deviation ``gaussian_scale``
+times the grid spacing in the face's plane and ``normal_scale`` times that along the normal,
+and has the entity's colour, shaded per face (top 1.0, x faces 0.85, y faces 0.75), plus a
+little noise.
 """
 
 from __future__ import annotations
@@ -120,7 +121,9 @@ def sample_gaussians(
             rgb = np.asarray(obj.rgb) * _SHADE[face[0]]
             means.append(pts)
             colors.append(rgb + cfg.color_noise * rng.standard_normal((m, 3)))
-            sigmas.append(sigma * rng.uniform(0.9, 1.1, (m, 3)))
+            sig = sigma * rng.uniform(0.9, 1.1, (m, 3))
+            sig[:, face[0]] *= cfg.normal_scale
+            sigmas.append(sig)
             labels.append(np.full(m, obj.id, dtype=np.int32))
     scene = GaussianScene.from_points(
         np.concatenate(means),

@@ -34,6 +34,9 @@ class SynthConfig:
         min_gaussians_per_object: floor on the Gaussians of one entity.
         density_weights: relative Gaussians per m² for structure, furniture, small objects.
         gaussian_scale: Gaussian standard deviation as a fraction of the sample spacing.
+        normal_scale: standard deviation along the face normal as a fraction of the one
+            in the face's plane (trained 3DGS flattens Gaussians onto surfaces; 1 makes
+            them spheres).
         color_noise: standard deviation of per-Gaussian colour noise (RGB in [0, 1]).
         opacity: opacity of every Gaussian.
         n_views, width, height, fov_y_deg: cameras (pinhole, square pixels).
@@ -57,6 +60,7 @@ class SynthConfig:
     min_gaussians_per_object: int = 40
     density_weights: tuple[float, float, float] = (1.0, 3.0, 12.0)
     gaussian_scale: float = 0.75
+    normal_scale: float = 0.2
     color_noise: float = 0.03
     opacity: float = 0.95
     fov_y_deg: float = 60.0
@@ -83,6 +87,8 @@ class SynthConfig:
             )
         if not 10 <= self.fov_y_deg <= 120:
             raise InvalidSynthConfigError(f"SynthConfig.fov_y_deg={self.fov_y_deg}")
+        if not 0 < self.normal_scale <= 1:
+            raise InvalidSynthConfigError(f"SynthConfig.normal_scale={self.normal_scale}")
         if not 0 < self.opacity < 1:
             raise InvalidSynthConfigError(f"SynthConfig.opacity={self.opacity}")
 
@@ -119,10 +125,10 @@ _PRESETS: dict[str, SynthConfig] = {
         room_size_m=(4.0, 3.5),
         n_furniture=4,
         n_small=4,
-        n_gaussians=5_000,
-        n_views=6,
-        width=96,
-        height=72,
+        n_gaussians=6_000,
+        n_views=12,
+        width=128,
+        height=96,
         min_gaussians_per_object=60,
         max_queries_per_type=4,
     ),

@@ -40,7 +40,7 @@ def test_help(command: str) -> None:
 def test_synth_tiny_json_and_same_bytes_as_the_api(tmp_path: Path) -> None:
     out = tmp_path / "scene"
     doc = json.loads(run("synth", "--size", "tiny", "--seed", "0", "-o", str(out), "--json").stdout)
-    assert doc["scene_id"] == "synth-tiny-0" and doc["n_views"] == 6
+    assert doc["scene_id"] == "synth-tiny-0" and doc["n_views"] == 12
     assert set(doc["queries_by_type"]) >= {"spatial", "commonsense", "affordance", "counterfactual"}
     assert Path(doc["files"]["point_cloud"]).is_file()
     # another process, through the Python API, writes the very same bytes

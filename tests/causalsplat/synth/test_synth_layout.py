@@ -131,10 +131,10 @@ def test_presets_and_validation() -> None:
     tiny = SynthConfig.preset("tiny", seed=7)
     assert (tiny.seed, tiny.width, tiny.height, tiny.n_views, tiny.n_gaussians) == (
         7,
+        128,
         96,
-        72,
-        6,
-        5000,
+        12,
+        6000,
     )
     assert SynthConfig.preset("medium").n_views == 48
     with pytest.raises(InvalidSynthConfigError, match="unknown size 'huge'"):

@@ -12,6 +12,7 @@ from causalsplat.io import read_colmap_model, read_gaussian_ply
 from causalsplat.masks import id_map_from_masks, read_masks
 from causalsplat.render.functional import render_ids
 from causalsplat.synth import SynthConfig, SynthScene, generate_scene, write_synth_scene
+from causalsplat.synth.config import InvalidSynthConfigError
 from causalsplat.synth.folder import SceneFolderError
 from causalsplat.synth.vocab import Kind
 
@@ -33,12 +34,32 @@ def test_counts(tiny: SynthScene) -> None:
     assert abs(tiny.gaussians.n - cfg.n_gaussians) <= 0.05 * cfg.n_gaussians
     assert tiny.labels.shape == (tiny.gaussians.n,) and tiny.labels.dtype == np.int32
     assert set(np.unique(tiny.labels)) == {o.id for o in tiny.layout.objects}
-    assert len(tiny.cameras) == 6 and tiny.images.shape == (6, 72, 96, 3)
+    assert len(tiny.cameras) == 12 and tiny.images.shape == (12, 96, 128, 3)
     assert tiny.images.dtype == np.uint8
     for obj in tiny.layout.objects:  # every entity has enough Gaussians, on its own box
         pts = tiny.gaussians.means[tiny.labels == obj.id]
         assert pts.shape[0] >= cfg.min_gaussians_per_object * 0.8
         assert np.all(pts >= obj.lo - 1e-5) and np.all(pts <= obj.hi + 1e-5)
+
+
+def test_gaussians_are_discs_flat_along_their_face_normal(tiny: SynthScene) -> None:
+    g = tiny.gaussians
+    assert np.allclose(g.rotation_matrices, np.eye(3), atol=1e-6)  # axis-aligned discs
+    scales = np.sort(g.scales.astype(np.float64), axis=1)
+    thin = g.scales.argmin(axis=1)
+    rows = np.arange(g.n)
+    coord = g.means[rows, thin]
+    for obj in tiny.layout.objects:  # the thin axis is the normal of the face it sits on
+        idx = np.flatnonzero(tiny.labels == obj.id)
+        lo, hi = np.asarray(obj.lo)[thin[idx]], np.asarray(obj.hi)[thin[idx]]
+        on_face = np.isclose(coord[idx], lo, atol=1e-5) | np.isclose(coord[idx], hi, atol=1e-5)
+        assert on_face.all(), obj.category
+    # sigmas vary by +-10 % per axis: normal / in-plane lies in normal_scale * [0.9/1.1, 1.1/0.9]
+    ratio = scales[:, 0] / scales[:, 1:].mean(axis=1)
+    c = tiny.config.normal_scale
+    assert ratio.min() >= c * 0.9 / 1.1 - 1e-6 and ratio.max() <= c * 1.1 / 0.9 + 1e-6
+    with pytest.raises(InvalidSynthConfigError, match="normal_scale"):
+        SynthConfig.preset("tiny", normal_scale=0.0)
 
 
 def test_gt_masks_are_exactly_the_id_render(tiny: SynthScene) -> None:
@@ -89,7 +110,7 @@ def test_ply_labels_and_cameras_round_trip(tiny: SynthScene, tiny_dir: Path) -> 
 
 def test_written_masks_match_memory(tiny: SynthScene, tiny_dir: Path) -> None:
     for cam, noisy, gt in zip(tiny.cameras, tiny.masks, tiny.gt_masks, strict=True):
-        back = read_masks(tiny_dir / "masks" / f"{cam.name}.npz", image_size=(96, 72))
+        back = read_masks(tiny_dir / "masks" / f"{cam.name}.npz", image_size=(128, 96))
         assert back.equals(noisy)
         assert read_masks(tiny_dir / "gt" / "masks" / f"{cam.name}.npz").equals(gt)
         categories = {o.category for o in tiny.layout.objects} | {"object"}
