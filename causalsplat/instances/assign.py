@@ -7,8 +7,15 @@
    same, one object seen many times) it is run again allowing a single cluster.
 2. Each cluster ``k`` has the centre ``C_k = Norm(mean of its mask features)``.
 3. Each supervised Gaussian takes ``argmax_k f·C_k`` (``assignment="feature"``, the
-   method) or the cluster whose masks hold most of its blending weight over all views
-   (``assignment="vote"``), when that score reaches ``min_similarity``; clusters that win
+   method's rule) or, by default (``assignment="vote"``), the cluster its views vote for:
+   every view in which the Gaussian is drawn inside clustered masks casts one vote, split
+   among the clusters in proportion to the blending weight the Gaussian carries inside
+   each one's masks there; the votes are averaged over those views, weighted by the
+   feature agreement ``max(0, f·C_k) ** vote_feature_power`` and normalised to shares.
+   One vote per view keeps a single view's oversized (merged) mask from outvoting the
+   other views; the feature agreement breaks the remaining ties in favour of what the
+   field learned from all views. The winner is accepted when its score reaches
+   ``min_similarity`` (feature) or ``min_vote_share`` (vote); clusters that win
    fewer than ``min_gaussians`` Gaussians are dropped and their Gaussians re-assigned
    among the rest.
 4. Active Gaussians that no mask supervised take the entity of the nearest assigned
@@ -113,7 +120,9 @@ def assign_instances(
         rows = np.flatnonzero(field.supervised)
         scores = field.features[rows].astype(np.float64) @ centers.T
     else:
-        scores, rows = _vote_scores(evidence, cluster, len(order))
+        scores, rows = _vote_scores(
+            evidence, cluster, centers, field.features, config.vote_feature_power
+        )
     labels, score, kept = _assign(field.n, scores, rows, config)
     remap = np.full(len(order) + 1, -1, dtype=np.int64)
     remap[kept] = np.arange(kept.size)
@@ -132,19 +141,36 @@ def assign_instances(
 
 
 def _vote_scores(
-    evidence: MaskEvidence, cluster: np.ndarray, k: int
+    evidence: MaskEvidence,
+    cluster: np.ndarray,
+    centers: np.ndarray,
+    features: np.ndarray,
+    power: float,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """(S, K) blending weight of each Gaussian inside the masks of each cluster, all views.
+    """(S, K) per-view votes of each Gaussian for each cluster, times feature agreement.
 
-    Rows are the Gaussians with some weight inside clustered masks (indices (S,)).
+    Rows are the Gaussians drawn inside some clustered mask (indices (S,)); see step 3 of
+    the module docstring.
     """
-    ok = np.flatnonzero(cluster >= 0)
-    onehot = sp.csr_matrix(
-        (np.ones(ok.size), (ok, cluster[ok])), shape=(evidence.n, k), dtype=np.float64
-    )
-    votes = (evidence.gaussian_weight.T.tocsr() @ onehot).toarray()  # (N, K)
+    k = centers.shape[0]
+    n = evidence.gaussian_weight.shape[1]
+    coo = evidence.gaussian_weight.tocoo()
+    keep = (cluster[coo.row] >= 0) & (coo.data > 0)
+    mask, gauss, weight = coo.row[keep], coo.col[keep], coo.data[keep]
+    if weight.size == 0:
+        return np.zeros((0, k)), np.zeros(0, dtype=np.int64)
+    _, view = np.unique(evidence.view, return_inverse=True)
+    n_views = int(view.max()) + 1
+    # One unit vote per (Gaussian, view), split by weight among that view's clusters.
+    _, pair = np.unique(gauss.astype(np.int64) * n_views + view[mask], return_inverse=True)
+    share = weight / np.bincount(pair, weights=weight)[pair]
+    votes = sp.csr_matrix((share, (gauss, cluster[mask])), shape=(n, k)).toarray()
     rows = np.flatnonzero(votes.sum(axis=1) > 0)
-    return votes[rows], rows
+    votes = votes[rows]
+    if power > 0:
+        agree = np.clip(features[rows].astype(np.float64) @ centers.T, 0.0, None)
+        votes *= agree**power
+    return votes, rows
 
 
 def _assign(
@@ -170,6 +196,8 @@ def _assign(
         best = sub.argmax(axis=1)
         best_sim = sub[np.arange(idx.size), best]
         ok = best_sim >= (config.min_vote_share if share else config.min_similarity)
+        if share:  # no vote at all (every agreement 0) is no assignment, whatever the floor
+            ok &= best_sim > 0
         counts = np.bincount(best[ok], minlength=kept.size)
         small = counts < config.min_gaussians
         if not small.any():

@@ -30,15 +30,19 @@ class InstanceConfig:
             clusters (measured on the synthetic scenes, see docs/benchmarks.md).
         assignment: how a Gaussian picks its entity. ``feature`` (the method's rule):
             ``argmax_k f·C_k``, accepted when the cosine reaches ``min_similarity``.
-            ``vote``: ``argmax_k`` of the blending weight the Gaussian carries inside
-            masks of cluster ``k`` over all views, accepted when that is at least
-            ``min_vote_share`` of its weight inside clustered masks. The vote does not
-            suffer from Adam moving barely visible Gaussians as fast as visible ones;
-            the build benchmark measures both.
+            ``vote`` (default): one vote per view in which the Gaussian is drawn inside
+            clustered masks, split by its blending weight among their clusters,
+            weighted by the feature agreement ``max(0, f·C_k) ** vote_feature_power``
+            and normalised to shares; accepted when the winner's share reaches
+            ``min_vote_share``. The vote does not suffer from Adam moving barely visible
+            Gaussians as fast as visible ones, nor lets one view's merged mask outvote
+            the others; the build benchmark measures both rules.
         min_similarity: the cosine a ``feature`` assignment needs; below it the Gaussian
             stays unassigned (-1).
-        min_vote_share: the share of its clustered-mask weight a ``vote`` assignment
-            needs; below it the Gaussian stays unassigned (-1).
+        vote_feature_power: exponent of the feature agreement in the ``vote`` rule; 0
+            counts the views' votes alone.
+        min_vote_share: the share a ``vote`` assignment needs; below it the Gaussian
+            stays unassigned (-1).
         min_gaussians: clusters that win fewer Gaussians are dropped (no entity).
         propagate_sigmas: active Gaussians that no mask supervised (hidden faces, the
             underside of a table top) take the entity of the nearest assigned Gaussian
@@ -51,6 +55,7 @@ class InstanceConfig:
     selection_epsilon: float = 0.4
     assignment: Literal["vote", "feature"] = "vote"
     min_similarity: float = 0.5
+    vote_feature_power: float = 1.0
     min_vote_share: float = 0.25
     min_gaussians: int = 8
     propagate_sigmas: float = 3.0
@@ -64,6 +69,8 @@ class InstanceConfig:
             ("selection_epsilon", _finite(self.selection_epsilon) and self.selection_epsilon >= 0),
             ("assignment", self.assignment in ("vote", "feature")),
             ("min_similarity", _finite(self.min_similarity) and -1 <= self.min_similarity <= 1),
+            ("vote_feature_power", _finite(self.vote_feature_power)
+                                   and self.vote_feature_power >= 0),
             ("min_vote_share", _finite(self.min_vote_share) and 0 <= self.min_vote_share <= 1),
             ("min_gaussians", _int_at_least(self.min_gaussians, 1)),
             ("propagate_sigmas", _finite(self.propagate_sigmas) and self.propagate_sigmas >= 0),

@@ -82,8 +82,44 @@ def test_both_rules_label_the_two_objects(rule: str) -> None:
     assert out.mask_entity.tolist() == [0, 0, 0, 1, 1, 1]
     assert out.n_entities == 2 and out.n_clusters == 2 and out.n_noise_masks == 0
     np.testing.assert_allclose(out.centers, [E2, E1], atol=1e-6)
-    if rule == "vote":  # Gaussian 5: 3.0 of its 3.6 weight lies in B's masks
-        assert out.score[5] == pytest.approx(3.0 / 3.6, rel=1e-6)
+    if rule == "vote":  # Gaussian 5 agrees with B's centre only (cosine 1 against 0)
+        assert out.score[5] == 1.0
+
+
+def test_vote_counts_each_view_once_and_weighs_by_feature_agreement() -> None:
+    field, evidence, means = _scene()
+    scales = np.full((6, 3), 0.1)
+    # Gaussian 5 lies 1.0 in B's mask and 0.2 in A's mask in each of the 3 views:
+    # each view votes 1/1.2 for B and 0.2/1.2 for A, summed 2.5 against 0.5.
+    votes_only = InstanceConfig(min_gaussians=1, vote_feature_power=0.0)
+    out = assign_instances(field, evidence, votes_only, means=means, scales=scales)
+    assert out.score[5] == pytest.approx(2.5 / 3.0, rel=1e-6)
+    # Feature (0.6, 0.8, 0): agreement 0.6 with A's centre, 0.8 with B's; power 1 weighs
+    # the votes to 0.3 (A) and 2.0 (B), B's share 2.0 / 2.3.
+    feats = field.features.copy()
+    feats[5] = [0.6, 0.8, 0.0]
+    mixed = FeatureField(feats, field.active, field.supervised, (), field.config)
+    out = assign_instances(mixed, evidence, InstanceConfig(min_gaussians=1), means=means,
+                           scales=scales)  # fmt: skip
+    assert out.labels[5] == 0 and out.score[5] == pytest.approx(2.0 / 2.3, rel=1e-6)
+    # One view's oversized mask does not outvote the others: Gaussian 2 (A) gets weight
+    # 10 inside B's mask of view 0 (a merged mask), 1.0 in A's masks of views 1 and 2.
+    w = evidence.gaussian_weight.toarray()
+    w[0, 2], w[3, 2] = 10.0, 0.0
+    merged = MaskEvidence(evidence.view, evidence.index, evidence.pixel_weight,
+                          evidence.features, sp.csr_matrix(w))  # fmt: skip
+    out = assign_instances(field, merged, votes_only, means=means, scales=scales)
+    assert out.labels[2] == 1 and out.score[2] == pytest.approx(2.0 / 3.0, rel=1e-6)
+
+
+def test_a_gaussian_agreeing_with_no_cluster_stays_unassigned() -> None:
+    field, evidence, means = _scene()
+    feats = field.features.copy()
+    feats[4] = [0.0, 0.0, 1.0]  # orthogonal to both centres: every weighted vote is 0
+    odd = FeatureField(feats, field.active, field.supervised, (), field.config)
+    config = InstanceConfig(min_gaussians=1, min_vote_share=0.0, propagate_sigmas=0.0)
+    out = assign_instances(odd, evidence, config, means=means, scales=np.full((6, 3), 0.1))
+    assert out.labels[4] == -1 and out.labels[3] == 0
 
 
 def test_unseen_gaussians_take_the_nearest_label_within_the_radius() -> None:
@@ -131,7 +167,8 @@ def test_no_masks_give_no_entities() -> None:
     ("name", "value"),
     [("min_cluster_size", 1), ("min_samples", 0), ("selection", "max"),
      ("selection_epsilon", -0.1), ("assignment", "nearest"), ("min_similarity", 2.0),
-     ("min_vote_share", 1.5), ("min_gaussians", 0), ("propagate_sigmas", float("inf"))],
+     ("min_vote_share", 1.5), ("vote_feature_power", -1.0), ("min_gaussians", 0),
+     ("propagate_sigmas", float("inf"))],
 )  # fmt: skip
 def test_instance_config_rejects_out_of_range_values(name: str, value: object) -> None:
     with pytest.raises(InstanceConfigError, match=f"InstanceConfig.{name}"):
