@@ -7,7 +7,7 @@ default. Unknown sections or keys are refused with :class:`BuildConfigError`::
      "raster": {"max_contributors": 64},
      "field": {"iterations": 300, "feature_dim": 16, "weighting": "spatial"},
      "instances": {"min_cluster_size": 3, "assignment": "vote"},
-     "nodes": {"bbox_quantile": 0.01},
+     "nodes": {"bbox_quantile": 0.1},
      "edges": {"tau_v": 0.3}}
 """
 

@@ -3,8 +3,8 @@
 For entity ``k`` with Gaussians ``G_k`` (label ``k`` in the assignment):
 
 * ``centroid``: the mean of the Gaussian centres; ``bbox_min`` / ``bbox_max``: per-axis
-  quantiles ``bbox_quantile`` and ``1 - bbox_quantile`` of the centres (a few stray
-  Gaussians do not blow the box up); ``point_count``: ``|G_k|``;
+  quantiles ``bbox_quantile`` and ``1 - bbox_quantile`` of the centres (the Gaussians a
+  neighbour's masks leaked into the entity do not blow the box up); ``point_count``: ``|G_k|``;
 * ``category``: the label with the largest vote among the entity's masks, each mask
   voting with its summed pixel weight times its score (1 when the masks have none);
   ``confidence``: that label's share of the vote; masks without labels give the category
@@ -38,11 +38,16 @@ class NodeConfig:
     """Options of :func:`build_entities`.
 
     Attributes:
-        bbox_quantile: per-axis quantile trimmed from each side of an entity's box.
+        bbox_quantile: per-axis quantile trimmed from each side of an entity's box. 0.1:
+            on the built synthetic scenes the support and proximity edges of trimmed
+            boxes answer far more generated questions (small, seed 0: 70% of them with
+            0.01, 97.5% with 0.1; scene0000_00 unchanged), as the few percent of
+            Gaussians labelled with a neighbour otherwise stretch a box down to the
+            floor or across to the next object.
         min_votes_share: label votes below this share are not stored as ``label_vote``.
     """
 
-    bbox_quantile: float = 0.01
+    bbox_quantile: float = 0.1
     min_votes_share: float = 0.05
 
 
