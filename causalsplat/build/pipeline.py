@@ -113,6 +113,19 @@ class BuildResult:
 
 
 def _peak_rss_mib() -> float:
+    """This process's peak resident memory, MiB.
+
+    On Linux ``VmHWM`` of ``/proc/self/status``: ``ru_maxrss`` is carried over from the
+    parent through fork and exec, so a build run by a large process (a benchmark, a
+    notebook) would report the parent's peak.
+    """
+    try:
+        with open("/proc/self/status", encoding="ascii") as status:
+            for line in status:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) / 1024
+    except (OSError, ValueError, IndexError):
+        pass
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     return peak / (1024 * 1024) if sys.platform == "darwin" else peak / 1024
 

@@ -180,3 +180,20 @@ def test_scenes_in_millimetres_and_kilometres(tiny_folder: Path, tmp_path: Path,
     if factor < 1:
         with pytest.raises(BuildError, match="near plane"):
             build_scene(folder, config=FAST, cache_dir=False)
+
+
+@pytest.mark.skipif(not Path("/proc/self/status").exists(), reason="needs Linux /proc")
+def test_peak_memory_is_the_process_own_not_its_parents() -> None:
+    """``ru_maxrss`` survives fork and exec; a build started by a big process reports its own."""
+    import subprocess
+    import sys
+
+    from causalsplat.build.pipeline import _peak_rss_mib
+
+    ballast = np.ones(1024 * 1024 * 1024 // 8)  # 1 GiB, touched
+    parent = _peak_rss_mib()
+    code = "from causalsplat.build.pipeline import _peak_rss_mib; print(_peak_rss_mib())"
+    child = float(subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                                 check=True).stdout)  # fmt: skip
+    del ballast
+    assert parent >= 1024 and 0 < child < parent - 900
