@@ -3,10 +3,11 @@
 Each step is one CTE (``s0``, ``s1``, ...) of a single ``WITH`` statement whose final
 ``SELECT`` returns every step's rows (``UNION ALL`` of ``(step, id)``), so the database
 computes every intermediate set (the ids of the whole scene, when a step is ``scene()``,
-come from one plain ``SELECT`` beside it); ``support_closure`` is a recursive CTE. A CTE
-may list an id twice (``relate`` unions both edge directions without de-duplicating);
-every reader treats CTEs as sets (``IN``, ``count(DISTINCT)``, a Python set at the end).
-Two things run as
+come from one plain ``SELECT`` beside it, read again only when the scene row shows the
+scene was saved again since the executor last read them); ``support_closure`` is a
+recursive CTE. A CTE may list an id twice (``relate`` unions both edge directions without
+de-duplicating); every reader treats CTEs as sets (``IN``, ``count(DISTINCT)``, a Python
+set at the end). Two things run as
 several statements, combined in Python with the shared rules of :mod:`queries.semantics`:
 the distinct strings that text filters match against (read first, matched in Python, bound
 back), and ``fall_if_removed``, an iterative fixpoint with one SQL statement per round
@@ -50,6 +51,8 @@ class SqlExecutor(Executor):
     def __init__(self, engine: Engine, scene_id: str, config: QueryConfig = DEFAULT_CONFIG):
         super().__init__(scene_id, config)
         self.engine = engine
+        #: The scene's ids in order, with the scene row's version they were read under.
+        self._scene_ids: tuple[Any, tuple[int, ...]] | None = None
         with engine.connect() as conn:
             found = conn.execute(sa.select(m.scenes.c.id).where(m.scenes.c.id == scene_id)).first()
         if found is None:
@@ -58,16 +61,37 @@ class SqlExecutor(Executor):
     def _execute(self, program: GraphQuery) -> QueryResult:
         try:
             with self.engine.connect() as conn, conn.begin():
-                return _SqlRun(conn, self.scene_id, self.config).run(program)
+                return _SqlRun(conn, self.scene_id, self.config, self).run(program)
         except sa.exc.DBAPIError as exc:
             reason = str(exc.orig).strip().splitlines()[0] if exc.orig else str(exc)
             raise QueryExecutionError(
                 f"the database could not run the program on scene {self.scene_id!r}: {reason}"
             ) from exc
 
+    def scene_ids(self, conn: Connection, c: SqlSteps) -> tuple[int, ...]:
+        """The scene's entity ids, ascending, read again only when the scene changed.
+
+        A stored scene's entities change only when the whole scene is saved again or
+        deleted, which writes a new scene row; its ``created_at`` and ``entity_count``,
+        read in the run's own transaction, tell whether the ids read before still hold.
+        """
+        s = m.scenes.c
+        version = conn.execute(
+            sa.select(s.created_at, s.entity_count).where(s.id == self.scene_id)
+        ).first()
+        cached = self._scene_ids
+        if version is not None and cached is not None and cached[0] == tuple(version):
+            return cached[1]
+        ids = tuple(map(itemgetter(0), raw_rows(conn, c.scene().order_by(E.c.id))))
+        self._scene_ids = None if version is None else (tuple(version), ids)
+        return ids
+
 
 class _SqlRun:
-    def __init__(self, conn: Connection, scene_id: str, config: QueryConfig) -> None:
+    def __init__(
+        self, conn: Connection, scene_id: str, config: QueryConfig, owner: SqlExecutor
+    ) -> None:
+        self.owner = owner
         self.conn = conn
         self.scene_id = scene_id
         self.config = config
@@ -176,8 +200,7 @@ class _SqlRun:
                 sets[step_index].add(value)
         scene: tuple[int, ...] = ()
         if self.c.whole:
-            rows = raw_rows(self.conn, self.c.scene().order_by(E.c.id))
-            scene = tuple(map(itemgetter(0), rows))
+            scene = self.owner.scene_ids(self.conn, self.c)
         out: list[StepValue] = []
         for i, step in enumerate(program.steps):
             if step.op is Op.SCENE:

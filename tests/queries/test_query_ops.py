@@ -16,6 +16,7 @@ right, towel 4 behind it, the cup in front of it.
 from __future__ import annotations
 
 from collections.abc import Callable
+from pathlib import Path
 
 import pytest
 
@@ -127,3 +128,39 @@ def test_results_carry_every_step_and_explain(executor: Executor) -> None:
     assert lines[-2] == "v4 = relate(v2, v1, left_of)  # 1 entity: 2"
     document = result.to_dict()
     assert document["answer"] == [2] and document["steps"][2] == [2, 3, 4]
+
+
+@pytest.mark.parametrize(
+    "backend", ["sqlite", pytest.param("postgres", marks=pytest.mark.postgres)]
+)
+def test_sql_reads_the_scene_ids_again_after_the_scene_is_saved_again(
+    backend: str, request: pytest.FixtureRequest, tmp_path: Path
+) -> None:
+    from graph_store.repository import open_store
+    from queries.sql_executor import SqlExecutor
+
+    url = (
+        f"sqlite:///{tmp_path / 'ids.db'}"
+        if backend == "sqlite"
+        else str(request.getfixturevalue("postgres_url"))
+    )
+    program = GraphQuery.from_text(
+        'query spatial\nv0 = scene()\nv1 = filter_category(v0, "towel")\nreturn v0'
+    )
+    first = scene()
+    with open_store(url) as store:
+        store.save_scene(first, if_exists="replace")
+        sql = SqlExecutor(store.engine, first.scene_id)
+        assert sql.run(program).answer == tuple(e.id for e in first.entities)
+        assert sql.run(program).answer == tuple(e.id for e in first.entities)  # cached
+        # the same number of entities under other ids, then fewer: both read again
+        shifted = tuple(
+            Entity(e.id + 100, e.category, e.centroid, e.bbox_min, e.bbox_max)
+            for e in first.entities
+        )
+        store.save_scene(SceneGraph(first.meta, shifted), if_exists="replace")
+        assert sql.run(program).answer == tuple(e.id for e in shifted)
+        store.save_scene(SceneGraph(first.meta, shifted[:3]), if_exists="replace")
+        assert sql.run(program).answer == (100, 101, 102)
+        store.delete_scene(first.scene_id)
+        assert sql.run(program).answer == ()
