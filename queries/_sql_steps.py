@@ -314,14 +314,15 @@ class SqlSteps:
         s = self.entity("s")
         centroid = (s.c.cx, s.c.cy, s.c.cz)
         base = [s.c.scene_id == self.scene_id, self.members(s.c.id, *inputs[0])]
-        if metric is not Metric.DISTANCE:
+        flat = metric is Metric.HORIZONTAL_DISTANCE
+        if not metric.is_distance:
             lo, hi = (s.c.min_x, s.c.min_y, s.c.min_z), (s.c.max_x, s.c.max_y, s.c.max_z)
             keyed = sa.select(
                 s.c.id, metric_value(SQL, metric.value, centroid, lo, hi).label("v")
             ).where(*base)
         elif len(inputs) == 2:
             a = self.entity("a")
-            d = squared_distance(SQL, centroid, (a.c.cx, a.c.cy, a.c.cz))
+            d = squared_distance(SQL, centroid, (a.c.cx, a.c.cy, a.c.cz), horizontal=flat)
             keyed = (
                 sa.select(s.c.id, sa.func.min(d).label("v"))
                 .where(*base, a.c.scene_id == self.scene_id, a.c.id != s.c.id)
@@ -330,7 +331,7 @@ class SqlSteps:
             )
         else:
             c = self.centre()
-            d = squared_distance(SQL, centroid, (c.c.x, c.c.y, c.c.z))
+            d = squared_distance(SQL, centroid, (c.c.x, c.c.y, c.c.z), horizontal=flat)
             keyed = sa.select(s.c.id, d.label("v")).select_from(s.join(c, sa.true())).where(*base)
         sub = keyed.subquery("keyed")
         order = sub.c.v.asc() if step.op is Op.ARGMIN else sub.c.v.desc()

@@ -78,11 +78,11 @@ def _check_inputs(i: int, step: Step, steps: tuple[Step, ...]) -> None:
         n == 2
         and step.op.value in ("argmin", "argmax")
         and step.metric is not None
-        and step.metric.value != "distance"
+        and not step.metric.is_distance
     ):
         raise QueryValidationError(
-            f"a second input (the reference set) is only used with metric 'distance',"
-            f" not {step.metric.value!r}",
+            f"a second input (the reference set) is only used with metric 'distance' or"
+            f" 'horizontal_distance', not {step.metric.value!r}",
             step=i,
             field="inputs",
         )

@@ -87,16 +87,24 @@ class Metric(StrEnum):
     """What ``argmin`` / ``argmax`` rank by (all in scene units, world frame).
 
     ``distance``: centroid distance to the nearest *other* member of the second input
-    (without one: to the scene centre); ``z`` / ``x`` / ``y``: centroid coordinate;
+    (without one: to the scene centre); ``horizontal_distance``: the same in the ``x``-``y``
+    plane (heights ignored: "the picture above the bed" is the one most directly over
+    it); ``z`` / ``x`` / ``y``: centroid coordinate;
     ``height``: vertical bounding-box extent; ``volume``: bounding-box volume.
     """
 
     DISTANCE = "distance"
+    HORIZONTAL_DISTANCE = "horizontal_distance"
     Z = "z"
     HEIGHT = "height"
     VOLUME = "volume"
     X = "x"
     Y = "y"
+
+    @property
+    def is_distance(self) -> bool:
+        """Ranks by distance to a reference set (or the scene centre), not a value per entity."""
+        return self in (Metric.DISTANCE, Metric.HORIZONTAL_DISTANCE)
 
 
 @dataclass(frozen=True, slots=True)

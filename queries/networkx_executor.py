@@ -173,11 +173,12 @@ class NetworkxExecutor(Executor):
         keyed: list[tuple[float, int]] = []
         for x in ins[0]:
             e = self._entity(x)
-            if metric is not Metric.DISTANCE:
+            flat = metric is Metric.HORIZONTAL_DISTANCE
+            if not metric.is_distance:
                 value = metric_value(PY, metric.value, e.centroid, e.bbox_min, e.bbox_max)
             elif len(ins) == 2:
                 others = [
-                    squared_distance(PY, e.centroid, self._entity(a).centroid)
+                    squared_distance(PY, e.centroid, self._entity(a).centroid, horizontal=flat)
                     for a in ins[1]
                     if a != x
                 ]
@@ -185,7 +186,7 @@ class NetworkxExecutor(Executor):
                     continue
                 value = min(others)
             else:
-                value = squared_distance(PY, e.centroid, self._centre)
+                value = squared_distance(PY, e.centroid, self._centre, horizontal=flat)
             keyed.append((sign * value, x))
         return top_k(keyed, step.effective_k)
 

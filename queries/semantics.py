@@ -21,7 +21,7 @@ Geometry (world frame, scene units, ``z`` up; see :class:`Algebra`)
     * ``distance``: squared centroid distance ``dx*dx + dy*dy + dz*dz`` (ranking by the square
       ranks by the distance) to the nearest member of the reference set other than the
       entity itself; members with no such reference are dropped. Without a reference set:
-      to the scene centre.
+      to the scene centre. ``horizontal_distance``: the same with ``dz`` left out.
     * ``argmin`` / ``argmax``: sort by (metric ascending / descending, entity id ascending),
       keep the first ``k``.
     * View-dependent relations (:func:`view_relation`), horizontal plane only: the observer
@@ -240,10 +240,16 @@ def centre_coordinate(alg: Algebra[N, B], lowest: N, highest: N) -> N:
     return alg.mul(alg.add(lowest, highest), alg.const(0.5))
 
 
-def squared_distance(alg: Algebra[N, B], p: tuple[N, N, N], q: tuple[N, N, N]) -> N:
-    """``dx*dx + dy*dy + dz*dz`` between two points."""
-    dx, dy, dz = alg.sub(p[0], q[0]), alg.sub(p[1], q[1]), alg.sub(p[2], q[2])
-    return alg.add(alg.add(alg.mul(dx, dx), alg.mul(dy, dy)), alg.mul(dz, dz))
+def squared_distance(
+    alg: Algebra[N, B], p: tuple[N, N, N], q: tuple[N, N, N], *, horizontal: bool = False
+) -> N:
+    """``dx*dx + dy*dy + dz*dz`` between two points (``dx*dx + dy*dy`` when ``horizontal``)."""
+    dx, dy = alg.sub(p[0], q[0]), alg.sub(p[1], q[1])
+    planar = alg.add(alg.mul(dx, dx), alg.mul(dy, dy))
+    if horizontal:
+        return planar
+    dz = alg.sub(p[2], q[2])
+    return alg.add(planar, alg.mul(dz, dz))
 
 
 def metric_value(

@@ -293,7 +293,8 @@ class _SparqlRun:
         metric = step.metric
         assert metric is not None
         centroid = ("?e_centroidX", "?e_centroidY", "?e_centroidZ")
-        if metric is not Metric.DISTANCE:
+        flat = metric is Metric.HORIZONTAL_DISTANCE
+        if not metric.is_distance:
             lo, hi = ("?e_minX", "?e_minY", "?e_minZ"), ("?e_maxX", "?e_maxY", "?e_maxZ")
             value = metric_value(SPARQL, metric.value, centroid, lo, hi)
             body = self.located("e", 0, ins[0], "localId", *_XYZ, *_BOX)
@@ -302,14 +303,14 @@ class _SparqlRun:
             a_xyz = ("?a_centroidX", "?a_centroidY", "?a_centroidZ")
             pairs = self.located("e", 0, ins[0], "localId", *_XYZ)
             pairs += self.located("a", 1, ins[1], *_XYZ)
-            d = squared_distance(SPARQL, centroid, a_xyz)
+            d = squared_distance(SPARQL, centroid, a_xyz, horizontal=flat)
             keyed = (  # BOUND: see _match_text
                 f"{{ SELECT ?e ?e_localId (MIN({d}) AS ?v) WHERE {{\n{pairs}FILTER (?e != ?a)\n}}"
                 " GROUP BY ?e ?e_localId }\nFILTER (BOUND(?e))\n"
             )
         else:
             c = tuple(double(x) for x in self.x.centre())
-            d = squared_distance(SPARQL, centroid, (c[0], c[1], c[2]))
+            d = squared_distance(SPARQL, centroid, (c[0], c[1], c[2]), horizontal=flat)
             keyed = f"{self.located('e', 0, ins[0], 'localId', *_XYZ)}BIND ({d} AS ?v)\n"
         order = "?v" if step.op is Op.ARGMIN else "DESC(?v)"
         text = (

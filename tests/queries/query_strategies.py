@@ -110,7 +110,7 @@ def steps_for(draw: st.DrawFn, op: Op, sets: list[int]) -> dict[str, Any]:
         step["inputs"] = _refs(draw, sets, 3)
     elif op in (Op.ARGMIN, Op.ARGMAX):
         metric = draw(st.sampled_from(list(Metric)))
-        two = metric is Metric.DISTANCE and draw(st.booleans())
+        two = metric.is_distance and draw(st.booleans())
         step.update(inputs=_refs(draw, sets, 2 if two else 1), metric=metric.value)
         step["k"] = draw(st.none() | st.integers(1, 4))
     elif op in (Op.UNION, Op.INTERSECT):

@@ -164,3 +164,29 @@ def test_sql_reads_the_scene_ids_again_after_the_scene_is_saved_again(
         assert sql.run(program).answer == (100, 101, 102)
         store.delete_scene(first.scene_id)
         assert sql.run(program).answer == ()
+
+
+def test_horizontal_distance_ignores_height(make_any: MakeExecutor) -> None:
+    """A lamp hung 5 m over the anchor is horizontally nearest; a cup beside it is nearest in 3D."""
+    ents = (
+        box(0, "table", 0.0, 0.0, 0.0),
+        box(1, "thing", 1.0, 0.0, 0.0),  # beside: 3D 1.0, horizontal 1.0
+        box(2, "thing", 0.2, 0.0, 5.0),  # overhead: 3D 5.004, horizontal 0.2
+        box(3, "thing", -3.0, 0.0, 0.0),  # far away: 3D 3.0, horizontal 3.0
+    )
+    executor = make_any(SceneGraph(SceneMeta("flat"), ents))
+    head = 'query spatial\nv0 = scene()\nv1 = filter_category(v0, "table")\n'
+    head += 'v2 = filter_category(v0, "thing")\n'
+    cases = [
+        ("v3 = argmin(v2, v1, distance)", (1,)),
+        ("v3 = argmin(v2, v1, horizontal_distance)", (2,)),
+        ("v3 = argmin(v2, v1, horizontal_distance, k=2)", (1, 2)),
+        ("v3 = argmax(v2, v1, distance)", (2,)),
+        ("v3 = argmax(v2, v1, horizontal_distance)", (3,)),
+        # no reference set: to the scene centre (-1, 0, 2.5), horizontally 2.0, 1.2 and 2.0
+        # away; the tie of 1 and 3 goes to the smaller id
+        ("v3 = argmin(v2, horizontal_distance)", (2,)),
+        ("v3 = argmax(v2, horizontal_distance)", (1,)),
+    ]
+    for body, expected in cases:
+        assert executor.run(GraphQuery.from_text(head + body)).answer == expected, body
