@@ -1,8 +1,9 @@
 """Stage 3 of the offline reasoner: the decision (target ids and the program's last steps).
 
 * A referring expression names one entity: when several candidates are left, the one
-  closest to the anchor of the last relation is taken (or, with no anchor, the largest),
-  and the explanation says so.
+  closest to the anchor of the last relation is taken (horizontally for ``above`` and
+  ``below``: the one most directly over or under it), or, with no anchor, the largest;
+  the explanation says so.
 * A set question keeps every candidate; ``how many`` ends in ``count``, ``is there`` in
   ``exists``.
 * A counterfactual removes the named entities and asks what falls (``fall_if_removed``),
@@ -128,11 +129,12 @@ def _referring(b: ProgramBuilder, planner: Planner, ins: Instruction) -> tuple[i
     if singular and b.size(step) > 1:
         n = b.size(step)
         if planned.anchor is not None:
-            metric = "distance"
+            metric = "horizontal_distance" if planned.vertical else "distance"
             if planned.between and SUM_METRIC is not None:
                 metric = SUM_METRIC
             step = b.add("argmin", step, planned.anchor, metric=metric)
-            what = "both anchors" if metric != "distance" else "the anchor"
+            what = {"distance": "the anchor", "horizontal_distance": "the anchor, horizontally"}
+            what = what.get(metric, "both anchors")
             b.note(f"{n} candidates fit; took the one closest to {what}")
         else:
             step = b.add("argmax", step, metric="volume")

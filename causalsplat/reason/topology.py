@@ -51,6 +51,11 @@ RELAXATIONS: dict[str, tuple[str, ...]] = {
     "in_front_of": (),
     "behind": (),
 }
+#: Relations between things stacked one over the other: of several candidates, the one
+#: most directly over or under the anchor (horizontal distance) is meant. Measured on the
+#: Sr3D *train* vertical rows (1,500 sampled): 91.0 % by 3D distance, 94.5 % horizontally.
+VERTICAL = frozenset({"above", "below"})
+
 _WORDS = {
     "supported_by": "on", "supports": "supporting", "above": "above", "below": "below",
     "inside": "inside", "contains": "containing", "near": "near", "closest": "closest to",
@@ -63,11 +68,12 @@ _WORDS = {
 @dataclass(frozen=True, slots=True)
 class Planned:
     """A planned noun phrase: its step, and the anchor step of its last relation (used to
-    break ties: the candidate closest to it)."""
+    break ties: the candidate closest to it, measured horizontally when ``vertical``)."""
 
     step: int
     anchor: int | None = None
     between: bool = False
+    vertical: bool = False
 
 
 class Planner:
@@ -128,7 +134,7 @@ class Planner:
             out = self.relation(step, constraint, singular=singular, selectors=selectors)
             if out is not None:
                 step, last = out.step, out
-        return Planned(self.modifiers(step, np), last.anchor, last.between)
+        return Planned(self.modifiers(step, np), last.anchor, last.between, last.vertical)
 
     def anchor(self, np: NounPhrase) -> int | None:
         planned = self.plan(np, singular=False, role="anchor")
@@ -155,7 +161,7 @@ class Planner:
         if c.negated:
             return Planned(self.b.add("difference", step, related), None)
         anchor = a[0] if len(a) == 1 else self.b.union(a)
-        return Planned(related, anchor, between=c.kind == "between")
+        return Planned(related, anchor, between=c.kind == "between", vertical=c.kind in VERTICAL)
 
     def _related(
         self, step: int, kind: str, a: list[int], *, singular: bool, selectors: bool

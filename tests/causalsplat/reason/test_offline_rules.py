@@ -153,3 +153,27 @@ def test_answers_are_valid_programs_and_deterministic(room: SceneContext) -> Non
         assert a.program == b.program and a.entity_ids == b.entity_ids
         assert GraphQuery.from_text(a.program.to_text()) == a.program
         assert a.reasoner == "offline" and a.fallback is None
+
+
+def test_of_several_things_above_the_anchor_the_one_most_directly_over_it_is_meant() -> None:
+    from graph_store import Entity, Relation, SceneGraph, SceneMeta
+
+    def thing(i: int, cat: str, c: tuple[float, float, float]) -> Entity:
+        lo = (c[0] - 0.2, c[1] - 0.2, c[2] - 0.2)
+        hi = (c[0] + 0.2, c[1] + 0.2, c[2] + 0.2)
+        return Entity(i, cat, c, lo, hi)
+
+    # picture 1 hangs 1.7 m over the bed's centre; picture 2 is 1.34 m away in 3D, but
+    # 1.2 m to the side: both are stored as above the bed
+    ents = (thing(0, "bed", (0.0, 0.0, 0.3)), thing(1, "picture", (0.0, 0.0, 2.0)),
+            thing(2, "picture", (1.2, 0.0, 0.9)), thing(3, "box", (1.2, 0.0, 0.1)))  # fmt: skip
+    rels = (Relation(1, 0, "above"), Relation(2, 0, "above"))
+    ctx = SceneContext(SceneGraph(SceneMeta("over"), ents, rels))
+    answer = REASONER.answer("the picture that is above the bed", ctx)
+    assert answer.entity_ids == (1,)
+    last = answer.program.steps[answer.program.answer_step]
+    assert last.op is Op.ARGMIN and last.metric is not None
+    assert last.metric.value == "horizontal_distance"
+    assert "horizontally" in answer.explanation
+    # closeness words keep the 3D distance
+    assert ask(ctx, "the picture closest to the box") == (2,)
