@@ -10,7 +10,7 @@
    method's rule) or, by default (``assignment="vote"``), the cluster its views vote for:
    every view in which the Gaussian is drawn inside clustered masks casts one vote, split
    among the clusters in proportion to the blending weight the Gaussian carries inside
-   each one's masks there; the votes are averaged over those views, weighted by the
+   each one's masks there; the votes are summed over those views, weighted by the
    feature agreement ``max(0, f·C_k) ** vote_feature_power`` and normalised to shares.
    One vote per view keeps a single view's oversized (merged) mask from outvoting the
    other views; the feature agreement breaks the remaining ties in favour of what the
