@@ -33,7 +33,7 @@ from causalsplat.io import (
 from causalsplat.masks import MaskSet, read_masks, write_masks
 from causalsplat.synth import synth_scene
 
-STEMS = tuple(f"view_{k:03d}" for k in range(6))
+STEMS = tuple(f"view_{k:03d}" for k in range(12))  # the tiny preset: 12 views of 128x96
 
 
 @pytest.fixture(scope="session")
@@ -69,7 +69,7 @@ def test_tiny_folder_reads(tiny_dir: Path) -> None:
     assert sf.root == tiny_dir.absolute()
     assert sf.ply_path == tiny_dir / "point_cloud.ply"
     assert sf.cameras_path == tiny_dir / "sparse" / "0"
-    assert len(sf.cameras) == len(sf.masks) == 6
+    assert len(sf.cameras) == len(sf.masks) == 12
     assert tuple(m.view for m in sf.masks) == STEMS
     assert tuple(view_stem(c.name) for c in sf.cameras) == STEMS
     for cam, ms in zip(sf.cameras, sf.masks, strict=True):
@@ -97,7 +97,7 @@ def test_optional_parts_absent(scene: Path) -> None:
     (scene / "queries.json").unlink()
     sf = read_scene_folder(str(scene))
     assert sf.gt_labels is None and sf.objects_path is None and sf.queries_path is None
-    assert len(sf.cameras) == 6
+    assert len(sf.cameras) == 12
     assert "gt/gt_labels.npy" not in sf.input_hashes()
 
 
@@ -186,11 +186,12 @@ def test_views_without_masks_are_skipped(scene: Path) -> None:
     ("max_views", "kept"),
     [
         (1, (0,)),
-        (2, (0, 5)),
-        (3, (0, 3, 5)),
-        (4, (0, 2, 3, 5)),
-        (6, tuple(range(6))),
-        (50, tuple(range(6))),
+        (2, (0, 11)),
+        (3, (0, 6, 11)),
+        (4, (0, 4, 7, 11)),
+        (6, (0, 2, 4, 7, 9, 11)),
+        (12, tuple(range(12))),
+        (50, tuple(range(12))),
     ],
 )
 def test_max_views_spacing(tiny_dir: Path, max_views: int, kept: tuple[int, ...]) -> None:
@@ -319,7 +320,7 @@ def test_mask_size_mismatch(scene: Path) -> None:
     path = scene / "masks" / "view_003.npz"
     ms = read_masks(path)
     write_masks(path, MaskSet(view=ms.view, masks=ms.masks[:, :-2, :], labels=ms.labels))
-    with pytest.raises(SceneFolderFormatError, match=r"view_003\.npz.*96x70.*expected 96x72"):
+    with pytest.raises(SceneFolderFormatError, match=r"view_003\.npz.*128x94.*expected 128x96"):
         read_scene_folder(scene)
 
 

@@ -53,7 +53,7 @@ def test_build_produces_a_consistent_graph(built: BuildResult, tiny_folder: Path
         own = int((labels == e.id).sum())
         assert e.point_count == own > 0
         assert all(lo <= c <= hi for lo, c, hi in zip(e.bbox_min, e.centroid, e.bbox_max))
-    assert len(g.views) == built.n_views == 6
+    assert len(g.views) == built.n_views == 12
     assert len(g.masks) == sum(1 for _ in g.masks) and all(
         m.entity is None or m.entity in ids for m in g.masks
     )

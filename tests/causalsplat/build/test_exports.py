@@ -59,9 +59,9 @@ def test_answer_masks_match_the_answers_gaussians(built_db: tuple[str, Path],
     doc = json.loads(run("export", "--scene", "t", "--format", "masks", "--ask",
                          "where can I wash my hands?", "-o", str(tmp_path / "m"), "--json",
                          db=url).stdout)  # fmt: skip
-    assert doc["answer"] and len(doc["paths"]) == 6
+    assert doc["answer"] and len(doc["paths"]) == 12
     images = [np.asarray(Image.open(p)) for p in doc["paths"]]
-    assert all(i.shape == (72, 96) and set(np.unique(i)) <= {0, 255} for i in images)
+    assert all(i.shape == (96, 128) and set(np.unique(i)) <= {0, 255} for i in images)
     assert sum(int((i > 0).sum()) for i in images) > 0
 
 
