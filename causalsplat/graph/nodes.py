@@ -2,9 +2,10 @@
 
 For entity ``k`` with Gaussians ``G_k`` (label ``k`` in the assignment):
 
-* ``centroid``: the mean of the Gaussian centres; ``bbox_min`` / ``bbox_max``: per-axis
-  quantiles ``bbox_quantile`` and ``1 - bbox_quantile`` of the centres (the Gaussians a
-  neighbour's masks leaked into the entity do not blow the box up); ``point_count``: ``|G_k|``;
+* ``bbox_min`` / ``bbox_max``: per-axis quantiles ``bbox_quantile`` and ``1 - bbox_quantile``
+  of the centres (the Gaussians a neighbour's masks leaked into the entity do not blow the
+  box up); ``centroid``: per axis, the mean of the centres inside that range (the trimmed
+  mean, so the centroid always lies in the box); ``point_count``: ``|G_k|``;
 * ``category``: the label with the largest vote among the entity's masks, each mask
   voting with its summed pixel weight times its score (1 when the masks have none);
   ``confidence``: that label's share of the vote; masks without labels give the category
@@ -72,6 +73,7 @@ def build_entities(
         q = config.bbox_quantile
         lo = np.quantile(pts, q, axis=0) if q > 0 else pts.min(axis=0)
         hi = np.quantile(pts, 1 - q, axis=0) if q > 0 else pts.max(axis=0)
+        centroid = _trimmed_mean(pts, lo, hi)
         tally = votes.get(k, {})
         total = sum(tally.values())
         if total > 0:
@@ -91,7 +93,7 @@ def build_entities(
             Entity(
                 id=k,
                 category=category,
-                centroid=tuple(float(v) for v in pts.mean(axis=0)),  # type: ignore[arg-type]
+                centroid=tuple(float(v) for v in centroid),  # type: ignore[arg-type]
                 bbox_min=tuple(float(v) for v in lo),  # type: ignore[arg-type]
                 bbox_max=tuple(float(v) for v in hi),  # type: ignore[arg-type]
                 point_count=int(idx.size),
@@ -146,3 +148,15 @@ def build_provenance(
                 )
             )
     return out_views, tuple(records)
+
+
+def _trimmed_mean(pts: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """Per axis, the mean of the coordinates in ``[lo, hi]``, clipped into it against rounding.
+
+    An axis with no coordinate inside (two points and an interpolated quantile) takes the
+    plain mean, clipped.
+    """
+    inside = (pts >= lo) & (pts <= hi)
+    count = inside.sum(axis=0)
+    trimmed = np.where(inside, pts, 0.0).sum(axis=0) / np.maximum(count, 1)
+    return np.clip(np.where(count > 0, trimmed, pts.mean(axis=0)), lo, hi)

@@ -92,3 +92,27 @@ def test_provenance_records_every_mask_read() -> None:
         (0, 0, 0, "cup"), (0, 1, 1, "chair"), (1, 0, 0, "mug"), (1, 1, None, "x"),
         (1, 2, None, "object"),
     ]  # fmt: skip
+
+
+def test_centroid_is_the_trimmed_mean_and_lies_in_the_box() -> None:
+    # 95 Gaussians at x = 0 and 5 leaked ones at x = 100: the 10 %-trimmed box is x in
+    # [0, 0]; the plain mean (5) would lie outside it, the trimmed mean is 0. Along y and
+    # z every centre is 0.1 (float32): the mean of equal values must not round out of it.
+    means = np.full((100, 3), 0.1, dtype=np.float32)
+    means[:, 0] = 0.0
+    means[95:, 0] = 100.0
+    scene = GaussianScene.from_points(means, np.full((100, 3), 0.5), np.full(100, 0.05))
+    assignment = InstanceAssignment(
+        labels=np.zeros(100, dtype=np.int64), mask_entity=np.zeros(0, dtype=np.int64),
+        centers=np.eye(1, 2, dtype=np.float32), score=np.ones(100, dtype=np.float32),
+        n_clusters=1, n_noise_masks=0,
+    )  # fmt: skip
+    evidence = MaskEvidence(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0),
+                            np.zeros((0, 2), np.float32), sp.csr_matrix((0, 100)))  # fmt: skip
+    (entity,) = build_entities(scene, assignment, evidence, [], NodeConfig(bbox_quantile=0.1))
+    assert entity.bbox_min[0] == entity.bbox_max[0] == entity.centroid[0] == 0.0
+    for axis in (1, 2):
+        assert entity.bbox_min[axis] <= entity.centroid[axis] <= entity.bbox_max[axis]
+        assert entity.centroid[axis] == pytest.approx(0.1, rel=1e-6)
+    (plain,) = build_entities(scene, assignment, evidence, [], NodeConfig(bbox_quantile=0))
+    assert plain.centroid[0] == pytest.approx(5.0) and plain.bbox_max[0] == 100.0
