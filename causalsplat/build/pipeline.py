@@ -186,6 +186,7 @@ def build_scene(
             assignment = assign_instances(
                 field, evidence, config.instances,
                 means=folder.gaussians.means, scales=folder.gaussians.scales,
+                quats=folder.gaussians.quats,
             )  # fmt: skip
             cache.put("instances", inst_key, _encode_assignment(assignment))
     if labeler is None and config.labeler == "vlm":

@@ -18,9 +18,12 @@
    ``min_similarity`` (feature) or ``min_vote_share`` (vote); clusters that win
    fewer than ``min_gaussians`` Gaussians are dropped and their Gaussians re-assigned
    among the rest.
-4. Active Gaussians that no mask supervised take the entity of the nearest assigned
-   Gaussian within ``propagate_sigmas`` median scales (KD-tree), others stay -1; pruned
-   Gaussians stay -1.
+4. Weakly seen Gaussians (evidence below ``min_evidence`` times the median: seen mostly
+   through an occluder, whose masks they vote for) and active Gaussians still unassigned
+   take their entity from the well-seen ones along the surface graph (edges at most
+   ``propagate_sigmas`` median scales long; see :mod:`causalsplat.instances.propagate`).
+   Those the graph does not connect to any well-seen Gaussian keep their vote, or stay -1;
+   pruned Gaussians stay -1.
 Entity ids are 0..K-1 in the order of each cluster's first mask (view order, then mask
 order), so they do not depend on HDBSCAN's label numbering.
 """
@@ -31,11 +34,11 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.spatial import cKDTree
 
 from causalsplat.field.types import FeatureField, MaskEvidence
 from causalsplat.field.weights import normalize_rows
 from causalsplat.instances.config import InstanceConfig
+from causalsplat.instances.propagate import harmonic_labels, surface_graph
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -48,7 +51,7 @@ class InstanceAssignment:
             :class:`~causalsplat.field.MaskEvidence`; -1: noise, or its cluster was dropped).
         centers: (K, C) float32 unit cluster centres ``C_k``, row ``k`` = entity ``k``.
         score: (N,) float32 the assignment score of each Gaussian (a cosine or a vote
-            share; 0 when unassigned or propagated).
+            share; 0 when unassigned, or when step 4 gave it another entity).
         n_clusters: clusters HDBSCAN found (before dropping small ones).
         n_noise_masks: masks HDBSCAN left as noise.
     """
@@ -96,11 +99,12 @@ def assign_instances(
     *,
     means: np.ndarray,
     scales: np.ndarray,
+    quats: np.ndarray | None = None,
 ) -> InstanceAssignment:
     """Cluster the masks and give every Gaussian an entity (module docstring).
 
-    ``means`` (N, 3) and ``scales`` (N, 3) of the scene serve the propagation to
-    Gaussians that no clustered mask covers.
+    ``means`` (N, 3), ``scales`` (N, 3) and ``quats`` (N, 4, wxyz) of the scene build the
+    surface graph of step 4; without ``quats`` its edges weigh distance only.
     """
     raw = cluster_masks(evidence.features, config)
     n_clusters = int(raw.max()) + 1 if raw.size else 0
@@ -127,14 +131,13 @@ def assign_instances(
     remap = np.full(len(order) + 1, -1, dtype=np.int64)
     remap[kept] = np.arange(kept.size)
     labels = remap[labels]
-    scored = np.zeros(field.n, dtype=bool)
-    scored[rows] = True
-    labels = _propagate(labels, field.active & ~scored, field.active, means, scales, config)
+    voted = labels
+    labels = _propagate(voted, field, evidence, means, scales, quats, config)
     return InstanceAssignment(
         labels=labels,
         mask_entity=remap[cluster],
         centers=centers[kept].astype(np.float32),
-        score=np.where(labels >= 0, score, 0.0).astype(np.float32),
+        score=np.where((labels >= 0) & (labels == voted), score, 0.0).astype(np.float32),
         n_clusters=n_clusters,
         n_noise_masks=int((raw < 0).sum()),
     )
@@ -212,23 +215,28 @@ def _assign(
 
 def _propagate(
     labels: np.ndarray,
-    unscored: np.ndarray,
-    active: np.ndarray,
+    field: FeatureField,
+    evidence: MaskEvidence,
     means: np.ndarray,
     scales: np.ndarray,
+    quats: np.ndarray | None,
     config: InstanceConfig,
 ) -> np.ndarray:
-    """Active Gaussians no mask scored take the nearest assigned Gaussian's entity (step 4)."""
-    todo = np.flatnonzero(unscored)
-    done = np.flatnonzero(labels >= 0)
-    if config.propagate_sigmas == 0 or todo.size == 0 or done.size == 0:
+    """Weakly seen and unassigned active Gaussians take labels along surfaces (step 4)."""
+    active = np.flatnonzero(field.active)
+    if config.propagate_sigmas == 0 or active.size == 0 or not (labels >= 0).any():
         return labels
-    radius = config.propagate_sigmas * float(np.median(np.max(scales[active], axis=1)))
+    sizes = np.asarray(scales, dtype=np.float64)[active]
+    radius = config.propagate_sigmas * float(np.median(np.max(sizes, axis=1)))
     if not np.isfinite(radius) or radius <= 0:
         return labels
-    pts = np.asarray(means, dtype=np.float64)
-    dist, nearest = cKDTree(pts[done]).query(pts[todo], distance_upper_bound=radius)
-    hit = np.isfinite(dist)
+    seen = np.asarray(evidence.gaussian_weight.sum(axis=0)).ravel()[active]
+    floor = config.min_evidence * float(np.median(seen[seen > 0])) if (seen > 0).any() else 0.0
+    fixed = (labels[active] >= 0) & (seen >= floor)
+    graph = surface_graph(
+        np.asarray(means)[active], sizes, None if quats is None else np.asarray(quats)[active],
+        k=config.propagate_neighbors, radius=radius, coplanar=config.propagate_coplanar,
+    )  # fmt: skip
     out = labels.copy()
-    out[todo[hit]] = labels[done[nearest[hit]]]
+    out[active] = harmonic_labels(graph, labels[active], fixed)
     return out

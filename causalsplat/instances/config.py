@@ -44,9 +44,18 @@ class InstanceConfig:
         min_vote_share: the share a ``vote`` assignment needs; below it the Gaussian
             stays unassigned (-1).
         min_gaussians: clusters that win fewer Gaussians are dropped (no entity).
-        propagate_sigmas: active Gaussians that no mask supervised (hidden faces, the
-            underside of a table top) take the entity of the nearest assigned Gaussian
-            within this many median Gaussian scales; 0 leaves them unassigned.
+        min_evidence: a Gaussian whose evidence (its summed weight inside all masks,
+            ``sum_m sum_x W_m(x) w(x, g)``) is below this fraction of the scene's median
+            is weakly seen, mostly through an occluder whose masks it then votes for (the
+            floor under a table top); such Gaussians, and active ones left unassigned,
+            take their entity from the surface graph
+            (:mod:`causalsplat.instances.propagate`). 0 relabels only the unassigned.
+        propagate_sigmas: edges of the surface graph are at most this many median
+            Gaussian scales long; 0 turns the propagation off (weakly seen Gaussians keep
+            their vote, unseen ones stay unassigned).
+        propagate_neighbors: neighbours per Gaussian in the surface graph.
+        propagate_coplanar: weigh the graph's edges by how well the two Gaussians lie in
+            one plane (flat Gaussians only); ``False`` uses distance alone.
     """
 
     min_cluster_size: int = 3
@@ -58,7 +67,10 @@ class InstanceConfig:
     vote_feature_power: float = 1.0
     min_vote_share: float = 0.25
     min_gaussians: int = 8
+    min_evidence: float = 0.5
     propagate_sigmas: float = 3.0
+    propagate_neighbors: int = 16
+    propagate_coplanar: bool = True
 
     def __post_init__(self) -> None:
         samples = self.min_samples
@@ -73,7 +85,10 @@ class InstanceConfig:
                                    and self.vote_feature_power >= 0),
             ("min_vote_share", _finite(self.min_vote_share) and 0 <= self.min_vote_share <= 1),
             ("min_gaussians", _int_at_least(self.min_gaussians, 1)),
+            ("min_evidence", _finite(self.min_evidence) and self.min_evidence >= 0),
             ("propagate_sigmas", _finite(self.propagate_sigmas) and self.propagate_sigmas >= 0),
+            ("propagate_neighbors", _int_at_least(self.propagate_neighbors, 1)),
+            ("propagate_coplanar", isinstance(self.propagate_coplanar, bool)),
         )  # fmt: skip
         for name, ok in checks:
             if not ok:

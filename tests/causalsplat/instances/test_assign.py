@@ -168,7 +168,8 @@ def test_no_masks_give_no_entities() -> None:
     [("min_cluster_size", 1), ("min_samples", 0), ("selection", "max"),
      ("selection_epsilon", -0.1), ("assignment", "nearest"), ("min_similarity", 2.0),
      ("min_vote_share", 1.5), ("vote_feature_power", -1.0), ("min_gaussians", 0),
-     ("propagate_sigmas", float("inf"))],
+     ("propagate_sigmas", float("inf")), ("min_evidence", -0.5), ("min_evidence", float("nan")),
+     ("propagate_neighbors", 0), ("propagate_neighbors", 2.5), ("propagate_coplanar", 1)],
 )  # fmt: skip
 def test_instance_config_rejects_out_of_range_values(name: str, value: object) -> None:
     with pytest.raises(InstanceConfigError, match=f"InstanceConfig.{name}"):

@@ -1,0 +1,136 @@
+"""Labels for weakly seen Gaussians, carried along surfaces from the well-seen ones.
+
+Masks only describe the front surface of a view. A Gaussian that every view sees through
+something else (the floor under a table top, the back of a cabinet) carries a little blending
+weight inside the *occluder's* masks, so its votes name the occluder, whatever view it is
+seen from. Its label is better read from the surface it lies on. This module does that:
+
+1. **Surface graph** (:func:`surface_graph`): each active Gaussian is joined to its ``k``
+   nearest neighbours within ``radius``, with weight
+   ``exp(-(d / s)**2) * exp(-e / 2)``, ``d`` the distance of the centres, ``s`` the median
+   neighbour distance of the scene, and ``e`` the squared offset of each centre from the
+   other's tangent plane in units of the two discs' thickness,
+   ``e = g_i (n_i·Δ)² / (t_i² + t_j²) + g_j (n_j·Δ)² / (t_i² + t_j²)``, ``n`` the axis of the
+   smallest scale ``t`` and ``g = clip(2 (1 - t / mid scale), 0, 1)`` how flat the Gaussian
+   is (a disc whose thickness is at most half its width counts fully; a sphere, which has
+   no normal, not at all). Two discs of one surface are joined strongly; a disc and one of a
+   parallel surface a few thicknesses away (a cabinet's back and the wall behind it), or of
+   a crossing surface (a table leg and the floor), weakly. Every length is relative to the
+   scene's own scales, so a scene in millimetres and the same one in kilometres give the
+   same graph weights.
+2. **Harmonic labels** (:func:`harmonic_labels`): the well-seen, labelled Gaussians are
+   fixed; every other Gaussian gets, for each entity, the probability that a random walk
+   on the graph from it first reaches a fixed Gaussian of that entity (the harmonic
+   function of Zhu, Ghahramani and Lafferty, 2003: one sparse linear solve), and takes the
+   most probable entity. Gaussians whose component of the graph holds no fixed Gaussian
+   keep the label they had.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
+from scipy.sparse.linalg import splu
+from scipy.spatial import cKDTree
+
+from causalsplat.io._geometry import quat_to_rotmat
+
+
+def surface_graph(
+    means: np.ndarray,
+    scales: np.ndarray,
+    quats: np.ndarray | None,
+    *,
+    k: int,
+    radius: float,
+    coplanar: bool = True,
+) -> sp.csr_matrix:
+    """(N, N) symmetric weights of the surface graph of ``N`` Gaussians (module docstring).
+
+    ``means`` (N, 3), ``scales`` (N, 3) standard deviations, ``quats`` (N, 4) wxyz (any
+    non-zero norm). Without ``quats``, or with ``coplanar=False``, only the distance term
+    is used. Edges are at most ``radius`` long; the matrix has no stored zeros.
+    """
+    pts = np.asarray(means, dtype=np.float64)
+    n = pts.shape[0]
+    kk = min(int(k), n - 1)
+    if kk < 1 or not np.isfinite(radius) or radius <= 0:
+        return sp.csr_matrix((n, n))
+    dist, nb = cKDTree(pts).query(pts, k=kk + 1, distance_upper_bound=radius)
+    dist, nb = dist[:, 1:], nb[:, 1:]
+    ok = np.isfinite(dist) & (nb != np.arange(n)[:, None])
+    if not ok.any():
+        return sp.csr_matrix((n, n))
+    src = np.broadcast_to(np.arange(n)[:, None], ok.shape)[ok]
+    dst = nb[ok]
+    d = dist[ok]
+    s = float(np.median(d))
+    if s <= 0:  # most neighbours coincide: any positive length keeps them joined
+        s = float(radius)
+    weight = np.exp(-((d / s) ** 2))
+    if coplanar and quats is not None:
+        weight *= np.exp(-0.5 * _plane_offsets(pts, np.asarray(scales, np.float64), quats,
+                                               src, dst))  # fmt: skip
+    graph = sp.csr_matrix((weight, (src, dst)), shape=(n, n))
+    graph = graph.maximum(graph.T).tocsr()
+    graph.eliminate_zeros()
+    return graph
+
+
+def _plane_offsets(
+    pts: np.ndarray, scales: np.ndarray, quats: np.ndarray, src: np.ndarray, dst: np.ndarray
+) -> np.ndarray:
+    """``e`` of the module docstring for the edges ``src -> dst`` (0 for spheres)."""
+    order = np.argsort(scales, axis=1)
+    sorted_scales = np.take_along_axis(scales, order, axis=1)
+    thin, mid = sorted_scales[:, 0], sorted_scales[:, 1]
+    ratio = np.divide(thin, mid, out=np.ones_like(thin), where=mid > 0)
+    flat = np.clip(2.0 * (1.0 - ratio), 0.0, 1.0)
+    rot = quat_to_rotmat(np.asarray(quats))
+    normal = rot[np.arange(len(pts)), :, order[:, 0]]  # column of the thinnest axis
+    delta = pts[dst] - pts[src]
+    thick2 = thin[src] ** 2 + thin[dst] ** 2
+    off2 = (flat[src] * np.einsum("ij,ij->i", normal[src], delta) ** 2
+            + flat[dst] * np.einsum("ij,ij->i", normal[dst], delta) ** 2)  # fmt: skip
+    e = np.full(src.size, np.inf)
+    np.divide(off2, thick2, out=e, where=thick2 > 0)
+    e[(thick2 <= 0) & (off2 == 0)] = 0.0  # zero-thickness discs exactly in one plane
+    return e
+
+
+def harmonic_labels(graph: sp.csr_matrix, labels: np.ndarray, fixed: np.ndarray) -> np.ndarray:
+    """Labels of the non-fixed nodes by the harmonic function on ``graph`` (step 2).
+
+    ``labels`` (N,) int, ``fixed`` (N,) bool: nodes whose label (>= 0) is kept and spread.
+    Returns a copy of ``labels`` in which every non-fixed node of a graph component holding
+    a fixed node takes the entity a random walk from it most likely reaches first (ties:
+    the smaller label).
+    """
+    labels = np.asarray(labels, dtype=np.int64)
+    fixed = np.asarray(fixed, dtype=bool) & (labels >= 0)
+    out = labels.copy()
+    free = np.flatnonzero(~fixed)
+    known = np.flatnonzero(fixed)
+    if free.size == 0 or known.size == 0:
+        return out
+    rows = graph[free]
+    w_ff = rows[:, free].tocsr()
+    boundary = rows[:, known].tocsr()
+    n_comp, comp = connected_components(w_ff, directed=False)
+    touches = np.zeros(n_comp, dtype=bool)
+    touches[comp[np.asarray(boundary.sum(axis=1)).ravel() > 0]] = True
+    solve = np.flatnonzero(touches[comp])
+    if solve.size == 0:
+        return out
+    n_labels = int(labels[known].max()) + 1
+    onehot = sp.csr_matrix(
+        (np.ones(known.size), (np.arange(known.size), labels[known])),
+        shape=(known.size, n_labels),
+    )
+    rhs = (boundary[solve] @ onehot).toarray()
+    degree = np.asarray(rows[solve].sum(axis=1)).ravel()
+    laplacian = (sp.diags(degree) - w_ff[solve][:, solve]).tocsc()
+    prob = splu(laplacian).solve(rhs)
+    out[free[solve]] = prob.argmax(axis=1)
+    return out

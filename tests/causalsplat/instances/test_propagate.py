@@ -1,0 +1,161 @@
+"""Surface graph weights and harmonic labels, by hand; the occluded-floor case end to end."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from causalsplat.field import FeatureField, FieldConfig, MaskEvidence
+from causalsplat.instances import InstanceConfig, assign_instances
+from causalsplat.instances.propagate import harmonic_labels, surface_graph
+from causalsplat.io._geometry import quat_to_rotmat
+
+IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])  # wxyz: local axes = world axes
+DISC = np.array([0.1, 0.1, 0.01])  # a disc in the x-y plane, normal z, thickness 0.01
+
+
+def _three_discs() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    # A and B in one plane 0.1 apart; C 0.02 above A, parallel to it.
+    means = np.array([[0.0, 0.0, 0.0], [0.1, 0.0, 0.0], [0.0, 0.0, 0.02]])
+    return means, np.tile(DISC, (3, 1)), np.tile(IDENTITY, (3, 1))
+
+
+def test_surface_graph_weights_by_hand() -> None:
+    means, scales, quats = _three_discs()
+    w = surface_graph(means, scales, quats, k=2, radius=1.0).toarray()
+    # edge lengths 0.1 (A-B), 0.02 (A-C), sqrt(0.0104) (B-C), each seen from both ends:
+    # median s = 0.1. Offsets from the tangent planes: A-B 0, A-C and B-C 0.02 on both
+    # sides, e = 2 * 0.02**2 / (2 * 0.01**2) = 4.
+    bc = math.sqrt(0.1**2 + 0.02**2)
+    expected = {
+        (0, 1): math.exp(-1.0),
+        (0, 2): math.exp(-(0.2**2)) * math.exp(-2.0),
+        (1, 2): math.exp(-((bc / 0.1) ** 2)) * math.exp(-2.0),
+    }
+    for (i, j), value in expected.items():
+        assert w[i, j] == pytest.approx(value, rel=1e-9) and w[j, i] == w[i, j]
+    assert np.all(np.diag(w) == 0)
+    # distance alone, and spheres (no normal) weigh the same way
+    plain = surface_graph(means, scales, quats, k=2, radius=1.0, coplanar=False).toarray()
+    assert plain[0, 2] == pytest.approx(math.exp(-(0.2**2)), rel=1e-9)
+    spheres = surface_graph(means, np.full((3, 3), 0.1), quats, k=2, radius=1.0).toarray()
+    np.testing.assert_allclose(spheres, plain, rtol=1e-12)
+    assert surface_graph(means, scales, None, k=2, radius=1.0).toarray() == pytest.approx(plain)
+
+
+def test_a_rotated_scene_gives_the_same_weights() -> None:
+    means, scales, quats = _three_discs()
+    half = math.pi / 5  # rotate everything by 2*pi/5 about the axis (1, 2, 3)
+    axis = np.array([1.0, 2.0, 3.0]) / math.sqrt(14.0)
+    q = np.array([math.cos(half), *(math.sin(half) * axis)])
+    rot = quat_to_rotmat(q[None])[0]
+    # the rotated discs' orientation is q * identity = q
+    turned = surface_graph(means @ rot.T, scales, np.tile(q, (3, 1)), k=2, radius=1.0)
+    np.testing.assert_allclose(
+        turned.toarray(), surface_graph(means, scales, quats, k=2, radius=1.0).toarray(),
+        rtol=1e-9, atol=1e-15,
+    )  # fmt: skip
+
+
+@pytest.mark.parametrize("unit", [1e-3, 1e4])
+def test_millimetres_and_kilometres_give_the_same_graph(unit: float) -> None:
+    rng = np.random.default_rng(0)
+    means = rng.uniform(0, 1, (200, 3))
+    scales = rng.uniform(0.01, 0.05, (200, 3))
+    quats = rng.standard_normal((200, 4))
+    ref = surface_graph(means, scales, quats, k=8, radius=0.15)
+    scaled = surface_graph(means * unit, scales * unit, quats, k=8, radius=0.15 * unit)
+    assert ref.nnz > 0 and np.all(np.isfinite(ref.data))
+    np.testing.assert_allclose(scaled.toarray(), ref.toarray(), rtol=1e-9, atol=1e-300)
+
+
+def test_degenerate_inputs_give_finite_graphs() -> None:
+    means, _, quats = _three_discs()
+    # zero-thickness discs: in-plane neighbours joined, the offset one cut off
+    flat = surface_graph(means, np.tile([0.1, 0.1, 0.0], (3, 1)), quats, k=2, radius=1.0)
+    assert flat[0, 1] == pytest.approx(math.exp(-1.0)) and flat[0, 2] == 0 and flat[1, 2] == 0
+    # coincident centres, one point, a radius of 0: finite, nothing stored as zero
+    same = surface_graph(np.zeros((4, 3)), np.full((4, 3), 0.1), None, k=3, radius=1.0)
+    assert same.nnz == 12 and np.allclose(same.data, 1.0)
+    assert surface_graph(np.zeros((1, 3)), np.ones((1, 3)), None, k=3, radius=1.0).nnz == 0
+    assert surface_graph(means, np.ones((3, 3)), None, k=2, radius=0.0).nnz == 0
+    far = surface_graph(means, np.ones((3, 3)), None, k=2, radius=1e-3)
+    assert far.nnz == 0
+
+
+def test_harmonic_labels_follow_the_random_walk() -> None:
+    # path 0-1-2-3-4, conductances 1, 1, 3, 3; node 0 fixed to label 0, node 4 to label 1.
+    # The walk from node i reaches 0 first with probability R(i, 4) / R(0, 4), R the
+    # resistance along the path (1 + 1 + 1/3 + 1/3 = 8/3): 0.625, 0.25, 0.125 for 1, 2, 3.
+    w = sp.lil_matrix((7, 7))
+    for i, j, c in [(0, 1, 1.0), (1, 2, 1.0), (2, 3, 3.0), (3, 4, 3.0), (5, 6, 1.0)]:
+        w[i, j] = w[j, i] = c
+    labels = np.array([0, 1, 0, 0, 1, -1, 2])
+    fixed = np.array([True, False, False, False, True, False, False])
+    out = harmonic_labels(w.tocsr(), labels, fixed)
+    # nodes 5 and 6 reach no fixed node: they keep their labels
+    assert out.tolist() == [0, 0, 1, 1, 1, -1, 2]
+    assert labels.tolist() == [0, 1, 0, 0, 1, -1, 2]  # the input is not changed
+    # a fixed node with no label (-1) is not fixed
+    out = harmonic_labels(w.tocsr(), np.array([0, 1, 0, 0, -1, -1, 2]), fixed)
+    assert out[:5].tolist() == [0, 0, 0, 0, 0]
+    # nothing fixed: unchanged; everything fixed: only the unlabelled node 5 is free
+    assert harmonic_labels(w.tocsr(), labels, np.zeros(7, bool)).tolist() == labels.tolist()
+    assert harmonic_labels(w.tocsr(), labels, np.ones(7, bool)).tolist() == [0, 1, 0, 0, 1, 2, 2]
+
+
+def _floor_under_table() -> tuple[FeatureField, MaskEvidence, np.ndarray, np.ndarray, np.ndarray]:
+    """An 8x8 floor of discs (spacing 0.1, z = 0) and a 4x4 low table top 0.05 above its middle.
+
+    Three views see the open floor in a floor mask and the table top in a table mask. The
+    16 floor discs under the top are seen only through it: they carry 2 % weight inside
+    the table masks and none inside the floor masks, and their features lean to the table.
+    """
+    g = np.arange(8) * 0.1
+    floor = np.array([[x, y, 0.0] for x in g for y in g])
+    top = np.array([[x, y, 0.05] for x in g[2:6] for y in g[2:6]])
+    means = np.vstack([floor, top])
+    n = means.shape[0]
+    under = np.zeros(n, dtype=bool)
+    under[:64] = np.all((floor[:, :2] > 0.15) & (floor[:, :2] < 0.55), axis=1)
+    is_top = np.arange(n) >= 64
+    e1, e2 = np.eye(3)[0], np.eye(3)[1]
+    feats = np.where((is_top | under)[:, None], e2, e1).astype(np.float32)
+    w = np.zeros((6, n))
+    for v in range(3):
+        w[2 * v, ~is_top & ~under] = 1.0  # floor mask
+        w[2 * v + 1, is_top] = 1.0  # table mask
+        w[2 * v + 1, under] = 0.02
+    field = FeatureField(feats, np.ones(n, bool), np.ones(n, bool), (), FieldConfig(feature_dim=3))
+    evidence = MaskEvidence(
+        view=np.repeat(np.arange(3), 2), index=np.tile([0, 1], 3), pixel_weight=np.ones(6),
+        features=np.array([e1, e2] * 3, dtype=np.float32), gaussian_weight=sp.csr_matrix(w),
+    )  # fmt: skip
+    scales = np.tile([0.05, 0.05, 0.005], (n, 1))
+    return field, evidence, means, scales, under
+
+
+def test_floor_seen_through_a_table_goes_to_the_floor() -> None:
+    field, evidence, means, scales, under = _floor_under_table()
+    quats = np.tile(IDENTITY, (means.shape[0], 1))
+    config = InstanceConfig(min_gaussians=1)
+    out = assign_instances(field, evidence, config, means=means, scales=scales, quats=quats)
+    floor, table = out.labels[0], out.labels[-1]
+    assert floor != table and floor >= 0 and table >= 0
+    assert np.all(out.labels[:64] == floor) and np.all(out.labels[64:] == table)
+    assert np.all(out.score[under] == 0) and np.all(out.score[~under] > 0)
+    # without the propagation the votes, all cast through the table top, win
+    off = InstanceConfig(min_gaussians=1, propagate_sigmas=0.0)
+    voted = assign_instances(field, evidence, off, means=means, scales=scales, quats=quats)
+    assert np.all(voted.labels[under] == voted.labels[-1])
+    # with distance alone, the table top 0.05 above (nearer than the next floor disc) wins
+    dist = InstanceConfig(min_gaussians=1, propagate_coplanar=False)
+    plain = assign_instances(field, evidence, dist, means=means, scales=scales, quats=quats)
+    assert np.all(plain.labels[under] == plain.labels[-1])
+    # evidence above the floor fraction keeps the vote
+    keep = InstanceConfig(min_gaussians=1, min_evidence=0.01)
+    kept = assign_instances(field, evidence, keep, means=means, scales=scales, quats=quats)
+    assert np.all(kept.labels[under] == kept.labels[-1])
