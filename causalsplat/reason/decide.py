@@ -40,6 +40,10 @@ class Decision:
     notes: tuple[str, ...]
 
 
+#: How the explanation names what a tie-break metric measures to (other: "both anchors").
+_CLOSEST_TO = {"distance": "the anchor", "horizontal_distance": "the anchor, horizontally"}
+
+
 def decide(
     builder: ProgramBuilder,
     instruction: Instruction,
@@ -133,8 +137,7 @@ def _referring(b: ProgramBuilder, planner: Planner, ins: Instruction) -> tuple[i
             if planned.between and SUM_METRIC is not None:
                 metric = SUM_METRIC
             step = b.add("argmin", step, planned.anchor, metric=metric)
-            what = {"distance": "the anchor", "horizontal_distance": "the anchor, horizontally"}
-            what = what.get(metric, "both anchors")
+            what = _CLOSEST_TO.get(metric, "both anchors")
             b.note(f"{n} candidates fit; took the one closest to {what}")
         else:
             step = b.add("argmax", step, metric="volume")
