@@ -6,9 +6,10 @@ Reads the plain database files of WordNet (Debian package ``wordnet-base``: ``ap
 
 * ``nouns``: the noun synsets of physical things (hyponyms of ``artifact``, ``natural
   object``, ``plant``, ``food`` and ``colour``, and of every affordance seed), each as
-  ``[lemmas, hypernyms, verbs]``: its lemmas (``|``-separated, spaces for underscores),
-  the indices of its hypernyms inside the list, and the indices of derivationally related
-  verb synsets;
+  ``[lemmas, hypernyms, verbs, gloss]``: its lemmas (``|``-separated, spaces for
+  underscores), the indices of its hypernyms inside the list, the indices of
+  derivationally related verb synsets, and its definition (the gloss without its quoted
+  usage examples);
 * ``verbs``: every verb synset, as ``[lemmas, hypernyms, nouns]``;
 * ``noun_index`` / ``verb_index``: lemma -> synset indices in WordNet's sense order (the
   first is the most frequent sense);
@@ -39,7 +40,7 @@ from pathlib import Path
 
 WORDNET = Path("/usr/share/wordnet")
 OUT = Path(__file__).resolve().parent.parent / "causalsplat" / "reason" / "data" / "lexicon.json.gz"
-FORMAT = "causalsplat-lexicon/1"
+FORMAT = "causalsplat-lexicon/2"
 
 #: Roots of the noun subtrees that are shipped: (lemma, sense number in WordNet 3.0).
 NOUN_ROOTS: tuple[tuple[str, int], ...] = (
@@ -120,6 +121,7 @@ class Synset:
     lemmas: list[str]
     hypernyms: list[str] = field(default_factory=list)
     derived: list[tuple[str, str]] = field(default_factory=list)  # (pos, offset)
+    gloss: str = ""
 
 
 def read_licence(root: Path) -> str:
@@ -142,7 +144,7 @@ def read_data(root: Path, pos: str) -> dict[str, Synset]:
         for line in handle:
             if line.startswith("  "):
                 continue
-            fields, _, _gloss = line.partition(" | ")
+            fields, _, gloss = line.partition(" | ")
             parts = fields.split()
             offset, w_cnt = parts[0], int(parts[3], 16)
             words = [parts[4 + 2 * i] for i in range(w_cnt)]
@@ -153,7 +155,7 @@ def read_data(root: Path, pos: str) -> dict[str, Synset]:
                     lemmas.append(w)
             i = 4 + 2 * w_cnt
             p_cnt = int(parts[i])
-            synset = Synset(offset, lemmas)
+            synset = Synset(offset, lemmas, gloss=definition(gloss))
             for j in range(p_cnt):
                 symbol, target, target_pos = parts[i + 1 + 4 * j : i + 4 + 4 * j]
                 if symbol in ("@", "@i"):
@@ -162,6 +164,13 @@ def read_data(root: Path, pos: str) -> dict[str, Synset]:
                     synset.derived.append((target_pos, target))
             out[offset] = synset
     return out
+
+
+def definition(gloss: str) -> str:
+    """The definition part of a WordNet gloss: its quoted usage examples dropped."""
+    parts = [p.strip() for p in gloss.split(";")]
+    kept = [p for p in parts if p and not p.startswith('"')]
+    return "; ".join(kept).strip()
 
 
 def read_index(root: Path, pos: str) -> dict[str, list[str]]:
@@ -230,7 +239,7 @@ def build(root: Path) -> dict[str, object]:
     def noun_row(s: Synset) -> list[object]:
         hyper = sorted(noun_pos[h] for h in s.hypernyms if h in noun_pos)
         derived = sorted({verb_pos[o] for p, o in s.derived if p == "v" and o in verb_pos})
-        return ["|".join(s.lemmas), hyper, derived]
+        return ["|".join(s.lemmas), hyper, derived, s.gloss]
 
     def verb_row(s: Synset) -> list[object]:
         hyper = sorted(verb_pos[h] for h in s.hypernyms if h in verb_pos)

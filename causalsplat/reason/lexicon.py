@@ -25,7 +25,7 @@ from typing import Any
 
 from causalsplat.reason.errors import ReasonError
 
-FORMAT = "causalsplat-lexicon/1"
+FORMAT = "causalsplat-lexicon/2"
 
 _NOUN_RULES = (("ses", "s"), ("xes", "x"), ("zes", "z"), ("ches", "ch"), ("shes", "sh"),
                ("men", "man"), ("ies", "y"), ("s", ""))  # fmt: skip
@@ -104,6 +104,10 @@ class Lexicon:
 
     def noun_lemmas(self, synset: int) -> tuple[str, ...]:
         return tuple(self._nouns[synset][0].split("|"))
+
+    def gloss(self, synset: int) -> str:
+        """WordNet's definition of a noun synset (its usage examples left out)."""
+        return str(self._nouns[synset][3])
 
     def noun_hypernyms(self, synset: int) -> tuple[int, ...]:
         return tuple(self._nouns[synset][1])
