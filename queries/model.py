@@ -37,12 +37,19 @@ from dataclasses import dataclass
 from enum import StrEnum
 from typing import Annotated, Any, Self, TypeVar
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    field_validator,
+    model_validator,
+)
 
 from graph_store.types import RelationType
 from queries.errors import QueryValidationError
 
-#: Most steps a program may have.
+#: Most steps a program may have (also the schema's ``maxItems`` on ``steps``).
 MAX_STEPS = 64
 #: Most inputs of one ``union`` / ``intersect`` step.
 MAX_SET_INPUTS = 8
@@ -247,6 +254,12 @@ class Step(_Model):
     metric: Metric | None = None
     k: Annotated[int, Field(strict=True, ge=1, le=MAX_K)] | None = None
     viewpoint: Viewpoint | None = None
+
+    @field_validator("inputs", mode="before")
+    @classmethod
+    def _null_inputs(cls, value: Any) -> Any:
+        """``"inputs": null`` (as strict-mode replies may write it) means no inputs."""
+        return () if value is None else value
 
     @property
     def spec(self) -> OpSpec:

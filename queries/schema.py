@@ -9,6 +9,17 @@ no recursion, no ``oneOf`` / ``anyOf`` / ``allOf``. Optional fields are simply n
 should write them. What the schema cannot say (per-op arity, which fields an op needs,
 inputs pointing backwards) is checked when the reply is validated
 (:class:`~queries.errors.QueryValidationError`).
+
+:func:`strict_schema` turns such a schema into one that OpenAI's strict structured-output
+mode accepts (``"strict": true``): every object lists every property in ``required``, with
+``additionalProperties: false``; an optional property becomes nullable (``anyOf`` with
+``{"type": "null"}``, which the model reads as absent), except an optional array, which
+becomes a required array (empty when unused: an absent ``inputs`` and an empty one mean the
+same); and ``minLength`` / ``maxLength``, which strict mode does not permit on strings, become
+a ``pattern`` of at most that many characters, none of them a quote, a backslash or a
+control character (so a grammar compiler that copies the class, like llama.cpp's, can only
+produce valid JSON). :func:`graph_query_strict_schema` is the program's strict variant; the
+flat :func:`graph_query_schema` is unchanged.
 """
 
 from __future__ import annotations
@@ -113,3 +124,56 @@ _SCHEMA = _build()
 def graph_query_schema() -> dict[str, Any]:
     """A fresh copy of the flat JSON Schema of a program."""
     return copy.deepcopy(_SCHEMA)
+
+
+def graph_query_strict_schema() -> dict[str, Any]:
+    """The program's schema for OpenAI's strict mode (:func:`strict_schema`), no title."""
+    schema = strict_schema(_SCHEMA)
+    schema.pop("title", None)
+    return schema
+
+
+#: A character a bounded strict-mode string may hold (no quote, backslash or control).
+STRICT_CHAR = r'[^"\\\x00-\x1f]'
+
+
+def strict_string_pattern(min_length: int, max_length: int) -> str:
+    """The ``pattern`` that stands for ``minLength`` / ``maxLength`` in strict mode."""
+    return f"^{STRICT_CHAR}{{{min_length},{max_length}}}$"
+
+
+def strict_schema(schema: dict[str, Any]) -> dict[str, Any]:
+    """A new schema for OpenAI's strict mode from a flat one (module docstring).
+
+    Only the keywords of the flat schemas are handled (objects, arrays, strings, numbers,
+    ``enum``); the input is not modified.
+    """
+    node = copy.deepcopy(schema)
+    if node.get("type") == "string" and ("minLength" in node or "maxLength" in node):
+        low = node.pop("minLength", 0)
+        high = node.pop("maxLength", None)
+        if "enum" not in node:
+            if high is None:
+                raise ValueError("a strict-mode string needs a maxLength to become a pattern")
+            node["pattern"] = strict_string_pattern(low, high)
+    if isinstance(node.get("items"), dict):
+        node["items"] = strict_schema(node["items"])
+    if node.get("type") == "object":
+        required = set(node.get("required", ()))
+        properties: dict[str, Any] = {}
+        for name, sub in node.get("properties", {}).items():
+            sub = strict_schema(sub)
+            if name not in required and sub.get("type") != "array":
+                sub = _nullable(sub)
+            properties[name] = sub
+        node["properties"] = properties
+        node["required"] = list(properties)
+        node["additionalProperties"] = False
+    return node
+
+
+def _nullable(schema: dict[str, Any]) -> dict[str, Any]:
+    out: dict[str, Any] = {"anyOf": [schema, {"type": "null"}]}
+    if "description" in schema:
+        out["description"] = schema.pop("description")
+    return out

@@ -1,13 +1,26 @@
 """A scripted OpenAI-compatible chat-completions server on loopback, for the VLM tests.
 
 It speaks the real HTTP API (``POST /v1/chat/completions``) and answers each request with
-the next scripted action: a reply (content and finish_reason), an HTTP status, or a delay
-before replying (to make the client time out). Requests are kept for inspection.
+the next scripted action: a reply, an HTTP status, or a delay before replying (to make the
+client time out). Requests are kept for inspection. It reproduces what real servers do:
+
+* **Token budget**: a reply longer than the request's ``max_tokens`` is cut there and comes
+  back with ``finish_reason: "length"`` (tokens: words and punctuation marks, a stand-in
+  for a real tokenizer).
+* **Strict mode**: like OpenAI, a request whose ``response_format`` has ``strict: true``
+  and a schema that breaks strict-mode rules (:func:`strict_schema_problems`) is refused
+  with HTTP 400 and an ``invalid_request_error`` naming the problem (``strict=False``
+  turns this off).
+* **A model that keeps counting** (:class:`Counting`): it lists ids 0, 1, 2, ... until the
+  budget cuts it off, unless the request's schema bounds ``target_ids`` with ``maxItems``,
+  which a grammar-constrained server (llama.cpp, vLLM) enforces: then it stops there and
+  closes the object.
 """
 
 from __future__ import annotations
 
 import json
+import re
 import threading
 import time
 from collections import deque
@@ -28,10 +41,138 @@ class Status:
     code: int
 
 
+@dataclass(frozen=True)
+class Counting:
+    """A reply that writes ``program`` and ``explanation``, then keeps counting ids."""
+
+    program: dict[str, Any]
+    explanation: str = "counting"
+
+
+_TOKEN = re.compile(r"\w+|[^\w\s]")
+
+
+def count_tokens(text: str) -> int:
+    return len(_TOKEN.findall(text))
+
+
+def cut_to_budget(content: str, max_tokens: int | None) -> tuple[str, bool]:
+    """``content`` cut after its ``max_tokens``-th token, and whether it was cut."""
+    if max_tokens is None:
+        return content, False
+    tokens = list(_TOKEN.finditer(content))
+    if len(tokens) <= max_tokens:
+        return content, False
+    return content[: tokens[max_tokens - 1].end()], True
+
+
+def _target_ids_bound(body: dict[str, Any]) -> int | None:
+    schema = body.get("response_format", {}).get("json_schema", {}).get("schema", {})
+    bound = schema.get("properties", {}).get("target_ids", {}).get("maxItems")
+    return bound if isinstance(bound, int) else None
+
+
+def counting_content(action: Counting, body: dict[str, Any]) -> str:
+    """What the counting model writes for this request (before the budget cuts it)."""
+    bound = _target_ids_bound(body)
+    head = json.dumps({"program": action.program, "explanation": action.explanation})[:-1]
+    n = bound if bound is not None else 100_000
+    ids = ", ".join(str(i) for i in range(n))
+    return f'{head}, "target_ids": [{ids}]}}'
+
+
+# -- OpenAI's strict mode ----------------------------------------------------------------
+
+#: Keywords OpenAI's structured outputs accept in strict mode (its "supported schemas"
+#: guide): no minLength/maxLength, no oneOf/allOf/not, no patternProperties...
+STRICT_KEYWORDS = frozenset(
+    {
+        "type", "description", "title", "properties", "required", "additionalProperties",
+        "items", "enum", "const", "anyOf", "$ref", "$defs",
+        "pattern", "format",
+        "minimum", "maximum", "exclusiveMinimum", "exclusiveMaximum", "multipleOf",
+        "minItems", "maxItems",
+    }
+)  # fmt: skip
+#: The guide's limits when strict mode came out: nesting depth and properties in all.
+STRICT_MAX_DEPTH = 5
+STRICT_MAX_PROPERTIES = 100
+
+
+def strict_schema_problems(schema: dict[str, Any]) -> list[str]:
+    """Why OpenAI's strict mode would refuse ``schema`` (empty: it is accepted).
+
+    Every object must have ``additionalProperties: false`` and list every property in
+    ``required``; only :data:`STRICT_KEYWORDS`; the root is an object, not ``anyOf``;
+    objects nest at most :data:`STRICT_MAX_DEPTH` deep, with at most
+    :data:`STRICT_MAX_PROPERTIES` properties in all. Walks ``properties``, ``items``,
+    ``anyOf`` and ``$defs``.
+    """
+    problems: list[str] = []
+    if schema.get("type") != "object" or "anyOf" in schema:
+        problems.append("the root must be an object, not anyOf")
+    counted = [0]
+    _walk_strict(schema, "$", 1, problems, counted)
+    for name, sub in schema.get("$defs", {}).items():
+        _walk_strict(sub, f"$defs.{name}", 1, problems, counted)
+    if counted[0] > STRICT_MAX_PROPERTIES:
+        problems.append(f"{counted[0]} object properties (at most {STRICT_MAX_PROPERTIES})")
+    return problems
+
+
+def _walk_strict(node: Any, path: str, depth: int, problems: list[str], counted: list[int]) -> None:
+    if not isinstance(node, dict):
+        problems.append(f"{path}: not a schema object")
+        return
+    unsupported = sorted(set(node) - STRICT_KEYWORDS)
+    if unsupported:
+        problems.append(f"{path}: {', '.join(repr(k) for k in unsupported)} is not permitted")
+    types = node.get("type")
+    is_object = types == "object" or (isinstance(types, list) and "object" in types)
+    if is_object or "properties" in node:
+        if depth > STRICT_MAX_DEPTH:
+            problems.append(f"{path}: nested {depth} objects deep (at most {STRICT_MAX_DEPTH})")
+        properties = node.get("properties", {})
+        counted[0] += len(properties)
+        if node.get("additionalProperties") is not False:
+            problems.append(f"{path}: 'additionalProperties' is required to be false")
+        required = node.get("required")
+        if not isinstance(required, list) or set(required) != set(properties):
+            missing = sorted(set(properties) - set(required or []))
+            problems.append(
+                f"{path}: 'required' is required to be supplied and to be an array including"
+                f" every key in properties. Missing {missing}"
+            )
+        for name, sub in properties.items():
+            _walk_strict(sub, f"{path}.{name}", depth + 1, problems, counted)
+    if "items" in node:
+        _walk_strict(node["items"], f"{path}[]", depth, problems, counted)
+    for i, sub in enumerate(node.get("anyOf", [])):
+        _walk_strict(sub, f"{path}.anyOf[{i}]", depth, problems, counted)
+
+
+def _strict_refusal(body: dict[str, Any]) -> str | None:
+    """OpenAI's 400 message for a strict ``json_schema`` it cannot use, or ``None``."""
+    fmt = body.get("response_format") or {}
+    wrapper = fmt.get("json_schema") or {}
+    if fmt.get("type") != "json_schema" or wrapper.get("strict") is not True:
+        return None
+    problems = strict_schema_problems(wrapper.get("schema") or {})
+    if not problems:
+        return None
+    return f"Invalid schema for response_format '{wrapper.get('name')}': {problems[0]}."
+
+
+# -- the server --------------------------------------------------------------------------
+
+
 class ScriptedServer:
-    def __init__(self) -> None:
-        self.script: deque[Reply | Status] = deque()
+    """The server (module docstring); ``strict``: refuse strict schemas OpenAI refuses."""
+
+    def __init__(self, *, strict: bool = False) -> None:
+        self.script: deque[Reply | Status | Counting] = deque()
         self.requests: list[dict[str, Any]] = []
+        self.strict = strict
         server = self
 
         class Handler(BaseHTTPRequestHandler):
@@ -42,29 +183,27 @@ class ScriptedServer:
                 length = int(self.headers.get("Content-Length", "0"))
                 body = json.loads(self.rfile.read(length) or b"{}")
                 server.requests.append({"path": self.path, "body": body})
+                refusal = _strict_refusal(body) if server.strict else None
+                if refusal is not None:
+                    error = {
+                        "message": refusal,
+                        "type": "invalid_request_error",
+                        "param": "response_format",
+                        "code": None,
+                    }
+                    self._send(400, {"error": error})
+                    return
                 action = server.script.popleft() if server.script else Status(503)
                 if isinstance(action, Status):
                     self._send(action.code, {"error": {"message": "scripted failure"}})
                     return
+                if isinstance(action, Counting):
+                    action = Reply(counting_content(action, body))
                 if action.delay_s:
                     time.sleep(action.delay_s)
-                self._send(
-                    200,
-                    {
-                        "id": "chatcmpl-test",
-                        "object": "chat.completion",
-                        "created": 0,
-                        "model": body.get("model", "test-model"),
-                        "choices": [
-                            {
-                                "index": 0,
-                                "message": {"role": "assistant", "content": action.content},
-                                "finish_reason": action.finish_reason,
-                            }
-                        ],
-                        "usage": {"prompt_tokens": 1, "completion_tokens": 1, "total_tokens": 2},
-                    },
-                )
+                content, cut = cut_to_budget(action.content, body.get("max_tokens"))
+                finish = "length" if cut else action.finish_reason
+                self._send(200, _completion(body, content, finish))
 
             def _send(self, code: int, document: dict[str, Any]) -> None:
                 data = json.dumps(document).encode()
@@ -86,6 +225,10 @@ class ScriptedServer:
         host, port = self.httpd.server_address[:2]
         return f"http://{host}:{port}/v1"
 
+    def bodies(self) -> list[dict[str, Any]]:
+        """The JSON bodies of the requests received, in order."""
+        return [r["body"] for r in self.requests]
+
     def __enter__(self) -> ScriptedServer:
         self.thread.start()
         return self
@@ -93,3 +236,21 @@ class ScriptedServer:
     def __exit__(self, *_exc: object) -> None:
         self.httpd.shutdown()
         self.httpd.server_close()
+
+
+def _completion(body: dict[str, Any], content: str, finish_reason: str) -> dict[str, Any]:
+    used = count_tokens(content)
+    return {
+        "id": "chatcmpl-test",
+        "object": "chat.completion",
+        "created": 0,
+        "model": body.get("model", "test-model"),
+        "choices": [
+            {
+                "index": 0,
+                "message": {"role": "assistant", "content": content},
+                "finish_reason": finish_reason,
+            }
+        ],
+        "usage": {"prompt_tokens": 1, "completion_tokens": used, "total_tokens": used + 1},
+    }
