@@ -18,16 +18,23 @@ def _options(
     base_url: str | None,
     model: str | None,
     timeout: float | None,
+    max_tokens: str | None,
     record: Path | None,
     replay: Path | None,
 ) -> dict[str, Any]:
     if reasoner == "offline":
-        if record or replay or base_url or model:
-            raise click.UsageError("--base-url/--model/--record/--replay need --reasoner vlm")
+        if record or replay or base_url or model or max_tokens:
+            raise click.UsageError(
+                "--base-url/--model/--max-tokens/--record/--replay need --reasoner vlm"
+            )
         return {"embeddings": True} if embeddings else {}
-    from causalsplat.openai_compat import VLMConfig
+    from causalsplat.openai_compat import VLMConfig, parse_max_tokens
 
-    config = VLMConfig.from_env(base_url=base_url, model=model, timeout_s=timeout)
+    # Parsed here, not by click, so a bad value is one line on stderr (a CausalSplatError).
+    budget = None if max_tokens is None else parse_max_tokens(max_tokens, "--max-tokens")
+    config = VLMConfig.from_env(
+        base_url=base_url, model=model, timeout_s=timeout, max_tokens=budget
+    )
     out: dict[str, Any] = {"config": config, "record": record, "replay": replay}
     return {k: v for k, v in out.items() if v is not None}
 
@@ -50,6 +57,12 @@ def _reasoner_options(func: Any) -> Any:
         click.option("--base-url", help="VLM server API root ($CAUSALSPLAT_VLM_BASE_URL)."),
         click.option("--model", help="VLM model name ($CAUSALSPLAT_VLM_MODEL)."),
         click.option("--timeout", type=float, help="VLM reply timeout in seconds (60)."),
+        click.option(
+            "--max-tokens",
+            metavar="N",
+            help="VLM reply token budget, a positive integer ($CAUSALSPLAT_VLM_MAX_TOKENS,"
+            " default 1024); a retry after a cut-off reply asks for twice as many.",
+        ),
         click.option(
             "--record",
             type=click.Path(dir_okay=False, path_type=Path),
@@ -79,6 +92,7 @@ def ask(
     base_url: str | None,
     model: str | None,
     timeout: float | None,
+    max_tokens: str | None,
     record: Path | None,
     replay: Path | None,
     db_url: str,
@@ -92,7 +106,7 @@ def ask(
     from causalsplat.api import open_store
     from causalsplat.reason import entity_documents
 
-    options = _options(reasoner, embeddings, base_url, model, timeout, record, replay)
+    options = _options(reasoner, embeddings, base_url, model, timeout, max_tokens, record, replay)
     with open_store(db_url, create=False) as store:
         scene = store.scene(scene_id)
         answer = scene.ask(text, reasoner=reasoner, **options)
@@ -129,6 +143,7 @@ def evaluate(
     base_url: str | None,
     model: str | None,
     timeout: float | None,
+    max_tokens: str | None,
     record: Path | None,
     replay: Path | None,
     db_url: str,
@@ -141,7 +156,7 @@ def evaluate(
     """
     from causalsplat.api import open_store
 
-    options = _options(reasoner, embeddings, base_url, model, timeout, record, replay)
+    options = _options(reasoner, embeddings, base_url, model, timeout, max_tokens, record, replay)
     with open_store(db_url, create=False) as store:
         report = store.scene(scene_id).evaluate(
             queries_file, reasoner=reasoner, gt_labels=gt_labels, **options

@@ -8,11 +8,15 @@ talk to a server, not to replay a recording.
 from causalsplat.openai_compat.client import (
     ENV_API_KEY,
     ENV_BASE_URL,
+    ENV_MAX_TOKENS,
     ENV_MODEL,
     ChatClient,
     ChatReply,
     VLMConfig,
+    check_finished,
+    parse_max_tokens,
     request_key,
+    retry_budget,
 )
 from causalsplat.openai_compat.errors import (
     ReplayMissError,
@@ -21,6 +25,7 @@ from causalsplat.openai_compat.errors import (
     VLMReplyError,
     VLMTimeoutError,
     VLMTransportError,
+    VLMTruncatedError,
 )
 from causalsplat.openai_compat.images import encode_png, image_data_url, image_part
 from causalsplat.openai_compat.labeler import EntityLabel, VLMLabeler, label_crops, parse_label
@@ -28,6 +33,7 @@ from causalsplat.openai_compat.labeler import EntityLabel, VLMLabeler, label_cro
 __all__ = [
     "ENV_API_KEY",
     "ENV_BASE_URL",
+    "ENV_MAX_TOKENS",
     "ENV_MODEL",
     "ChatClient",
     "ChatReply",
@@ -40,10 +46,14 @@ __all__ = [
     "VLMReplyError",
     "VLMTimeoutError",
     "VLMTransportError",
+    "VLMTruncatedError",
+    "check_finished",
     "encode_png",
     "image_data_url",
     "image_part",
     "label_crops",
     "parse_label",
+    "parse_max_tokens",
     "request_key",
+    "retry_budget",
 ]

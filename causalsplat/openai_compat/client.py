@@ -3,8 +3,9 @@
 Any server that speaks the chat-completions API works (vLLM, SGLang, Ollama, llama.cpp,
 LM Studio, hosted APIs): :class:`VLMConfig` names its base URL, the model and the key,
 from arguments or the environment (``CAUSALSPLAT_VLM_BASE_URL``, ``CAUSALSPLAT_VLM_MODEL``,
-``CAUSALSPLAT_VLM_API_KEY``). Requests go through the ``openai`` package (the ``vlm``
-extra) with no automatic retries and a timeout; every failure becomes a typed
+``CAUSALSPLAT_VLM_API_KEY``, and a reply's token budget ``CAUSALSPLAT_VLM_MAX_TOKENS``).
+Requests go through the ``openai`` package (the ``vlm`` extra) with no automatic retries
+and a timeout; every failure becomes a typed
 :class:`~causalsplat.openai_compat.errors.VLMError`.
 
 Record and replay: with ``record=PATH`` every exchange is appended to a JSONL file, one
@@ -14,6 +15,11 @@ object per line, ``{"key", "request", "reply"}`` or ``{"key", "request", "error"
 whatever model name is configured. With ``replay=PATH`` requests are answered from
 such a file, in recorded order for repeated requests, without the network (and without
 the ``openai`` package): a VLM evaluation re-runs deterministically offline.
+
+A reply cut off by its token budget (``finish_reason == "length"``) is told apart from other
+unusable replies (:func:`check_finished` raises
+:class:`~causalsplat.openai_compat.errors.VLMTruncatedError`); callers retry it with a larger
+budget (:func:`retry_budget`, a per-call ``max_tokens`` of :meth:`ChatClient.complete`).
 """
 
 from __future__ import annotations
@@ -33,11 +39,18 @@ from causalsplat.openai_compat.errors import (
     VLMReplyError,
     VLMTimeoutError,
     VLMTransportError,
+    VLMTruncatedError,
 )
 
 ENV_BASE_URL = "CAUSALSPLAT_VLM_BASE_URL"
 ENV_MODEL = "CAUSALSPLAT_VLM_MODEL"
 ENV_API_KEY = "CAUSALSPLAT_VLM_API_KEY"
+ENV_MAX_TOKENS = "CAUSALSPLAT_VLM_MAX_TOKENS"
+#: The default token budget of one reply.
+DEFAULT_MAX_TOKENS = 1024
+#: A retry after a cut-off reply doubles the budget, up to this many tokens (a budget set
+#: higher than this is kept as it is).
+RETRY_MAX_TOKENS = 8192
 INSTALL_HINT = "pip install 'causalsplat[vlm]' (the openai package)"
 Message = dict[str, Any]
 
@@ -51,7 +64,8 @@ class VLMConfig:
         model: the model name the server knows.
         api_key: the key (servers that need none accept any string).
         timeout_s: seconds to wait for one reply.
-        max_tokens: most tokens of a reply.
+        max_tokens: most tokens of a reply (a positive int; the retry after a cut-off
+            reply asks for :func:`retry_budget` of it).
         temperature: sampling temperature (0: as deterministic as the server allows).
         seed: sampling seed sent to servers that honour one.
     """
@@ -60,19 +74,65 @@ class VLMConfig:
     model: str | None = None
     api_key: str | None = None
     timeout_s: float = 60.0
-    max_tokens: int = 1024
+    max_tokens: int = DEFAULT_MAX_TOKENS
     temperature: float = 0.0
     seed: int | None = 0
 
+    def __post_init__(self) -> None:
+        check_max_tokens(self.max_tokens, "max_tokens")
+
     @classmethod
     def from_env(cls, **overrides: Any) -> VLMConfig:
-        """Settings from the environment, then ``overrides`` (``None`` values ignored)."""
+        """Settings from the environment, then ``overrides`` (``None`` values ignored).
+
+        Raises :class:`VLMConfigError` when ``CAUSALSPLAT_VLM_MAX_TOKENS`` is set but not a
+        positive integer.
+        """
+        overrides = {k: v for k, v in overrides.items() if v is not None}
+        raw_budget = os.environ.get(ENV_MAX_TOKENS, "").strip()
+        if raw_budget and "max_tokens" not in overrides:
+            overrides["max_tokens"] = parse_max_tokens(raw_budget, ENV_MAX_TOKENS)
         base = cls(
             base_url=os.environ.get(ENV_BASE_URL) or None,
             model=os.environ.get(ENV_MODEL) or None,
             api_key=os.environ.get(ENV_API_KEY) or None,
         )
-        return replace(base, **{k: v for k, v in overrides.items() if v is not None})
+        return replace(base, **overrides)
+
+
+def check_max_tokens(value: object, source: str) -> int:
+    """``value`` if it is a positive int, else :class:`VLMConfigError` naming ``source``."""
+    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+        raise VLMConfigError(f"{source} must be a positive integer, got {value!r}")
+    return value
+
+
+def parse_max_tokens(text: str, source: str) -> int:
+    """A token budget from text (a CLI option or an environment variable); a
+    :class:`VLMConfigError` naming ``source`` unless it is a positive integer."""
+    stripped = text.strip()
+    if not stripped.isascii() or not stripped.isdigit() or int(stripped) < 1:
+        raise VLMConfigError(f"{source} must be a positive integer, got {text!r}")
+    return int(stripped)
+
+
+def with_note(messages: list[Message], note: str) -> list[Message]:
+    """``messages`` with ``note`` added to the last one, a user message (for a retry that
+    asks again instead of answering a cut-off reply: roles keep alternating, as some chat
+    templates require, and the cut-off text is not sent back)."""
+    last = dict(messages[-1])
+    content = last["content"]
+    if isinstance(content, str):
+        last["content"] = f"{content}\n\n{note}"
+    else:
+        last["content"] = [*content, {"type": "text", "text": note}]
+    return [*messages[:-1], last]
+
+
+def retry_budget(max_tokens: int) -> int:
+    """The budget of a retry after a reply cut off at ``max_tokens``: twice as many, capped
+    at :data:`RETRY_MAX_TOKENS` (never less than ``max_tokens``)."""
+    return max(max_tokens, min(2 * max_tokens, RETRY_MAX_TOKENS))
 
 
 @dataclass(frozen=True, slots=True)
@@ -82,6 +142,17 @@ class ChatReply:
     content: str
     finish_reason: str | None
     model: str | None = None
+
+    @property
+    def cut_off(self) -> bool:
+        """Whether generation stopped at the token budget (``finish_reason == "length"``)."""
+        return self.finish_reason == "length"
+
+
+def check_finished(reply: ChatReply, max_tokens: int | None = None) -> None:
+    """Raise :class:`VLMTruncatedError` when ``reply`` was cut off at ``max_tokens``."""
+    if reply.cut_off:
+        raise VLMTruncatedError(max_tokens)
 
 
 def request_key(request: dict[str, Any]) -> str:
@@ -134,14 +205,19 @@ class ChatClient:
         return f"ChatClient({mode!r}, model={self.config.model!r})"
 
     def request(
-        self, messages: list[Message], response_format: dict[str, Any] | None
+        self,
+        messages: list[Message],
+        response_format: dict[str, Any] | None,
+        max_tokens: int | None = None,
     ) -> dict[str, Any]:
-        """The request document (also the record/replay key's input)."""
+        """The request document (also the record/replay key's input); ``max_tokens``
+        overrides the configured budget."""
+        budget = self.config.max_tokens if max_tokens is None else max_tokens
         out: dict[str, Any] = {
             "model": self.config.model,
             "messages": messages,
             "temperature": self.config.temperature,
-            "max_tokens": self.config.max_tokens,
+            "max_tokens": check_max_tokens(budget, "max_tokens"),
         }
         if self.config.seed is not None:
             out["seed"] = self.config.seed
@@ -150,12 +226,19 @@ class ChatClient:
         return out
 
     def complete(
-        self, messages: list[Message], *, response_format: dict[str, Any] | None = None
+        self,
+        messages: list[Message],
+        *,
+        response_format: dict[str, Any] | None = None,
+        max_tokens: int | None = None,
     ) -> ChatReply:
-        """One chat completion. Raises :class:`VLMTransportError` (HTTP error, no
-        connection), :class:`VLMTimeoutError`, :class:`VLMReplyError` (no choices) or, in
-        replay mode, :class:`ReplayMissError`."""
-        request = self.request(messages, response_format)
+        """One chat completion, with at most ``max_tokens`` tokens (default: the config's).
+
+        Raises :class:`VLMTransportError` (HTTP error, no connection),
+        :class:`VLMTimeoutError`, :class:`VLMReplyError` (no choices) or, in replay mode,
+        :class:`ReplayMissError`. A cut-off reply is returned (see :func:`check_finished`).
+        """
+        request = self.request(messages, response_format, max_tokens)
         key = request_key(request)
         if self._replay is not None:
             return _replayed(self._replay, key)

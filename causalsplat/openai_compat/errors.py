@@ -29,13 +29,35 @@ class VLMTimeoutError(VLMTransportError):
 
 
 class VLMReplyError(VLMError):
-    """A reply is unusable: cut off (``finish_reason == "length"``), empty, not JSON, or
+    """A reply is unusable: cut off (:class:`VLMTruncatedError`), empty, not JSON, or
     not valid for what was asked. ``reason`` is a short tag (``truncated``, ``json``,
     ``schema``, ``unknown_id``, ``unknown_name``...)."""
 
     def __init__(self, message: str, *, reason: str) -> None:
         super().__init__(message)
         self.reason = reason
+
+    def after(self, first: VLMReplyError) -> VLMReplyError:
+        """This error (same type and attributes), its message also saying why the first
+        reply, the one this was the retry of, was rejected."""
+        out = type(self).__new__(type(self))
+        out.__dict__.update(self.__dict__)
+        out.args = (f"{self} (on the retry; the first reply: {first})",)
+        return out
+
+
+class VLMTruncatedError(VLMReplyError):
+    """The reply was cut off by its token budget (``finish_reason == "length"``).
+
+    ``max_tokens`` is the budget it was generated under (``None`` when unknown).
+    """
+
+    def __init__(self, max_tokens: int | None = None) -> None:
+        budget = f" at max_tokens={max_tokens}" if max_tokens is not None else ""
+        super().__init__(
+            f"the reply was cut off{budget} (finish_reason=length)", reason="truncated"
+        )
+        self.max_tokens = max_tokens
 
 
 class ReplayMissError(VLMError):

@@ -3,9 +3,12 @@ affordances), as the method's graph construction uses them.
 
 Each crop (an ``(H, W, 3)`` uint8 or float image of one entity, pixels outside its mask
 blanked by the caller) goes to the server as a base64 PNG data URL with the prompt in
-``prompts/label_*.txt``, asking for JSON under a ``json_schema`` response format. A reply
-that is cut off, not JSON or not of the schema is retried once with the problem fed
-back; a second failure raises :class:`~causalsplat.openai_compat.errors.VLMReplyError`.
+``prompts/label_*.txt``, asking for JSON under a strict ``json_schema`` response format
+(:func:`queries.schema.strict_schema` of :data:`LABEL_SCHEMA`). A reply that is not JSON
+or not of the schema is retried once with the problem fed back; one cut off by its token
+budget is retried with twice the budget
+(:func:`~causalsplat.openai_compat.client.retry_budget`); a second failure raises
+:class:`~causalsplat.openai_compat.errors.VLMReplyError`.
 
 >>> labeler = VLMLabeler(ChatClient(VLMConfig.from_env()))   # doctest: +SKIP
 >>> labeler.label_crops([crop])[0].category                  # doctest: +SKIP
@@ -23,10 +26,18 @@ from typing import Any
 
 import numpy as np
 
-from causalsplat.openai_compat.client import ChatClient, ChatReply, Message
-from causalsplat.openai_compat.errors import VLMReplyError
+from causalsplat.openai_compat.client import (
+    ChatClient,
+    ChatReply,
+    Message,
+    check_finished,
+    retry_budget,
+    with_note,
+)
+from causalsplat.openai_compat.errors import VLMReplyError, VLMTruncatedError
 from causalsplat.openai_compat.images import image_part
 from graph_store import Attribute, AttributeSource
+from queries.schema import strict_schema
 
 _KEYS = ("category", "color", "material", "state", "affordances")
 LABEL_SCHEMA: dict[str, Any] = {
@@ -47,7 +58,7 @@ LABEL_SCHEMA: dict[str, Any] = {
 }
 RESPONSE_FORMAT: dict[str, Any] = {
     "type": "json_schema",
-    "json_schema": {"name": "entity_label", "schema": LABEL_SCHEMA, "strict": True},
+    "json_schema": {"name": "entity_label", "schema": strict_schema(LABEL_SCHEMA), "strict": True},
 }
 
 
@@ -111,10 +122,35 @@ def _strip_fences(content: str) -> str:
     return text.strip()
 
 
-def _checked(reply: ChatReply) -> EntityLabel:
-    if reply.finish_reason == "length":
-        raise VLMReplyError("the reply was cut off (finish_reason=length)", reason="truncated")
+def _checked(reply: ChatReply, max_tokens: int) -> EntityLabel:
+    check_finished(reply, max_tokens)
     return parse_label(reply.content)
+
+
+def _label_one(client: ChatClient, messages: list[Message]) -> EntityLabel:
+    """One label: a request, and one retry that fixes what made the first reply fail."""
+    budget = client.config.max_tokens
+    reply = client.complete(messages, response_format=RESPONSE_FORMAT, max_tokens=budget)
+    first: VLMReplyError
+    try:
+        return _checked(reply, budget)
+    except VLMTruncatedError as exc:
+        first, budget = exc, retry_budget(budget)
+        note = _template("label_retry.txt").substitute(error=f"{exc}; use shorter values")
+        messages = with_note(messages, note)
+    except VLMReplyError as exc:
+        first = exc
+        retry = _template("label_retry.txt").substitute(error=str(exc))
+        messages = [
+            *messages,
+            {"role": "assistant", "content": reply.content},
+            {"role": "user", "content": retry},
+        ]
+    second = client.complete(messages, response_format=RESPONSE_FORMAT, max_tokens=budget)
+    try:
+        return _checked(second, budget)
+    except VLMReplyError as exc:
+        raise exc.after(first) from exc
 
 
 def label_crops(
@@ -131,17 +167,7 @@ def label_crops(
             {"role": "system", "content": system},
             {"role": "user", "content": [{"type": "text", "text": text}, image_part(crop)]},
         ]
-        reply = client.complete(messages, response_format=RESPONSE_FORMAT)
-        try:
-            out.append(_checked(reply))
-            continue
-        except VLMReplyError as exc:
-            retry = _template("label_retry.txt").substitute(error=str(exc))
-            messages += [
-                {"role": "assistant", "content": reply.content},
-                {"role": "user", "content": retry},
-            ]
-        out.append(_checked(client.complete(messages, response_format=RESPONSE_FORMAT)))
+        out.append(_label_one(client, messages))
     return out
 
 

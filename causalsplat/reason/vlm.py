@@ -4,18 +4,24 @@ One request per instruction to an OpenAI-compatible chat-completions server
 (:mod:`causalsplat.openai_compat`), with the prompt templates of ``prompts/`` (the system
 prompt lists the ops and relations; the user prompt holds the compact scene graph of
 :mod:`causalsplat.reason._graph_text` and the instruction) and structured output:
-``response_format`` is a ``json_schema`` of ``{"program": <GraphQuery.json_schema()>,
-"target_ids": [...], "explanation": "..."}`` (the method's three stages in one reply).
+``response_format`` is a strict ``json_schema`` (:func:`reply_schema`) of ``{"program":
+<the program's strict schema>, "target_ids": [...], "explanation": "..."}`` (the method's
+three stages in one reply). Everything a model could run on with is bounded: at most
+:data:`~queries.model.MAX_STEPS` steps, :data:`MAX_TARGET_IDS` ids, and string lengths.
 
-Every reply is checked: cut off (``finish_reason == "length"``), not JSON, not of the
-schema or not a valid program (:class:`~queries.QueryValidationError`), naming a category,
-attribute or affordance the scene does not hold, or an entity id not in the graph. The
-first failure is fed back for one retry; a second failure, a timeout, an HTTP error or a
+Every reply is checked: cut off by its token budget
+(:class:`~causalsplat.openai_compat.VLMTruncatedError`), not JSON, not of the schema or not
+a valid program (:class:`~queries.QueryValidationError`), naming a category, attribute or
+affordance the scene does not hold, or an entity id not in the graph. One retry changes
+what made the first reply fail: after a cut-off reply it asks again for a shorter answer
+with twice the token budget (:func:`~causalsplat.openai_compat.retry_budget`); after any
+other failure it feeds the error back. A second failure, a timeout, an HTTP error or a
 replay miss hand the instruction to the fallback reasoner (the offline one by default),
 and the :class:`~causalsplat.reason.answer.Answer` says so (``reasoner="offline"``,
-``requested="vlm"``, ``fallback=<why>``). With ``fallback=False`` the typed error is
-raised instead. The program (not the model's ``target_ids``) decides the answer; when the
-two disagree the explanation says so.
+``requested="vlm"``, ``fallback=<why>``, naming the error type and both replies'
+problems). With ``fallback=False`` the typed error is raised instead. The program (not
+the model's ``target_ids``) decides the answer; when the two disagree the explanation
+says so.
 """
 
 from __future__ import annotations
@@ -27,17 +33,30 @@ from pathlib import Path
 from string import Template
 from typing import Any
 
-from causalsplat.openai_compat import ChatClient, VLMConfig, VLMError, VLMReplyError
-from causalsplat.openai_compat.client import ChatReply, Message
+from causalsplat.openai_compat import (
+    ChatClient,
+    VLMConfig,
+    VLMError,
+    VLMReplyError,
+    VLMTruncatedError,
+    check_finished,
+    retry_budget,
+)
+from causalsplat.openai_compat.client import ChatReply, Message, with_note
 from causalsplat.reason._graph_text import graph_text
 from causalsplat.reason.answer import Answer, make_answer
 from causalsplat.reason.context import SceneContext
 from causalsplat.reason.reasoner import Reasoner
 from graph_store.types import RelationType
 from queries import OP_SPECS, GraphQuery, Op, QueryError, QueryValidationError
+from queries.schema import graph_query_strict_schema, strict_schema
 from queries.semantics import normalise_text, split_attribute
 
 _GRAPH_KEY = "vlm:graph-text"
+#: Most ids a reply's ``target_ids`` may list (they only cross-check the program).
+MAX_TARGET_IDS = 32
+#: Longest explanation kept, in characters (the schema's bound; a longer one is cut).
+MAX_EXPLANATION_LENGTH = 500
 
 
 def _template(name: str) -> Template:
@@ -46,16 +65,31 @@ def _template(name: str) -> Template:
 
 
 def reply_schema() -> dict[str, Any]:
-    """The JSON Schema of a reply: the program, the target ids, an explanation."""
-    program = GraphQuery.json_schema()
-    program.pop("title", None)
+    """The JSON Schema of a reply (the program, the target ids, an explanation), valid
+    under OpenAI's strict mode (:func:`queries.schema.strict_schema`)."""
+    rest = strict_schema(
+        {
+            "type": "object",
+            "properties": {
+                "target_ids": {
+                    "type": "array",
+                    "items": {"type": "integer", "minimum": 0},
+                    "maxItems": MAX_TARGET_IDS,
+                    "description": "Ids of the entities the program selects (at most"
+                    f" {MAX_TARGET_IDS}).",
+                },
+                "explanation": {
+                    "type": "string",
+                    "maxLength": MAX_EXPLANATION_LENGTH,
+                    "description": "One or two sentences.",
+                },
+            },
+            "required": ["target_ids", "explanation"],
+        }
+    )
     return {
         "type": "object",
-        "properties": {
-            "program": program,
-            "target_ids": {"type": "array", "items": {"type": "integer", "minimum": 0}},
-            "explanation": {"type": "string", "maxLength": 2000},
-        },
+        "properties": {"program": graph_query_strict_schema(), **rest["properties"]},
         "required": ["program", "target_ids", "explanation"],
         "additionalProperties": False,
     }
@@ -147,22 +181,33 @@ class VLMReasoner:
         return [{"role": "system", "content": system}, {"role": "user", "content": user}]
 
     def program(self, text: str, ctx: SceneContext) -> tuple[GraphQuery, _Notes]:
-        """Ask the server for a program (one retry); raises a ``VLMError`` when the second
-        reply is unusable too."""
+        """Ask the server for a program (one retry, module docstring); raises a
+        ``VLMError`` when the second reply is unusable too."""
         messages = self.messages(text, ctx)
         fmt = response_format()
-        reply = self.client.complete(messages, response_format=fmt)
+        budget = self.client.config.max_tokens
+        reply = self.client.complete(messages, response_format=fmt, max_tokens=budget)
+        first: VLMReplyError
         try:
-            return check_reply(reply, ctx)
+            return check_reply(reply, ctx, max_tokens=budget)
+        except VLMTruncatedError as exc:
+            first, budget = exc, retry_budget(budget)
+            note = _template("retry_truncated.txt").substitute(
+                max_tokens=exc.max_tokens, max_ids=MAX_TARGET_IDS
+            )
+            messages = with_note(messages, note)
         except VLMReplyError as exc:
             first = exc
-        retry = _template("retry.txt").substitute(error=str(first))
-        messages = [
-            *messages,
-            {"role": "assistant", "content": reply.content},
-            {"role": "user", "content": retry},
-        ]
-        program, notes = check_reply(self.client.complete(messages, response_format=fmt), ctx)
+            messages = [
+                *messages,
+                {"role": "assistant", "content": reply.content},
+                {"role": "user", "content": _template("retry.txt").substitute(error=str(exc))},
+            ]
+        second = self.client.complete(messages, response_format=fmt, max_tokens=budget)
+        try:
+            program, notes = check_reply(second, ctx, max_tokens=budget)
+        except VLMReplyError as exc:
+            raise exc.after(first) from exc
         notes.lines.insert(0, f"first reply rejected ({first.reason}); the retry was used")
         return program, notes
 
@@ -175,10 +220,12 @@ class _Notes:
         self.lines = [f"the model: {explanation}"] if explanation else []
 
 
-def check_reply(reply: ChatReply, ctx: SceneContext) -> tuple[GraphQuery, _Notes]:
-    """Validate one reply against the schema and the scene (module docstring)."""
-    if reply.finish_reason == "length":
-        raise VLMReplyError("the reply was cut off (finish_reason=length)", reason="truncated")
+def check_reply(
+    reply: ChatReply, ctx: SceneContext, *, max_tokens: int | None = None
+) -> tuple[GraphQuery, _Notes]:
+    """Validate one reply (generated under ``max_tokens``) against the schema and the
+    scene (module docstring)."""
+    check_finished(reply, max_tokens)
     try:
         data = json.loads(_strip_fences(reply.content))
     except json.JSONDecodeError as exc:
@@ -199,15 +246,24 @@ def check_reply(reply: ChatReply, ctx: SceneContext) -> tuple[GraphQuery, _Notes
             isinstance(i, int) and not isinstance(i, bool) for i in ids
         ):
             raise VLMReplyError("'target_ids' must be a list of integers", reason="schema")
+        if len(ids) > MAX_TARGET_IDS:
+            raise VLMReplyError(
+                f"'target_ids' lists {len(ids)} ids; list at most {MAX_TARGET_IDS}, only"
+                " those the program selects",
+                reason="schema",
+            )
         unknown = sorted(i for i in ids if i not in ctx.by_id)
         if unknown:
             raise VLMReplyError(
                 f"target_ids {unknown} are not entities of the scene", reason="unknown_id"
             )
-    explanation = data.get("explanation", "")
+    explanation = data.get("explanation") or ""
     if not isinstance(explanation, str):
         raise VLMReplyError("'explanation' must be a string", reason="schema")
-    return program, _Notes(ids, explanation.strip())
+    explanation = explanation.strip()
+    if len(explanation) > MAX_EXPLANATION_LENGTH:
+        explanation = explanation[: MAX_EXPLANATION_LENGTH - 1].rstrip() + "\u2026"
+    return program, _Notes(ids, explanation)
 
 
 def _check_names(program: GraphQuery, ctx: SceneContext) -> None:

@@ -1,7 +1,9 @@
 """The VLM backend against a real HTTP server on loopback that replays scripted replies.
 
 Every case ends in a valid answer (from the VLM, or from the offline fallback, which the
-answer says) or in a typed error; none needs a real model.
+answer says) or in a typed error; none needs a real model. The server behaves as real ones
+do (``vlm_server``): it cuts replies at the request's ``max_tokens``, refuses schemas that
+OpenAI's strict mode refuses, and can play a model that keeps counting ids.
 """
 
 from __future__ import annotations
@@ -12,7 +14,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from click.testing import CliRunner
 
+from causalsplat import Store
+from causalsplat.cli import cli
 from causalsplat.openai_compat import (
     ChatClient,
     ReplayMissError,
@@ -21,11 +26,22 @@ from causalsplat.openai_compat import (
     VLMLabeler,
     VLMReplyError,
     VLMTransportError,
+    VLMTruncatedError,
+    retry_budget,
 )
 from causalsplat.reason import SceneContext
-from causalsplat.reason.vlm import VLMReasoner, reply_schema
+from causalsplat.reason import vlm as vlm_module
+from causalsplat.reason.vlm import MAX_EXPLANATION_LENGTH, MAX_TARGET_IDS, VLMReasoner, reply_schema
 from queries import GraphQuery
-from tests.causalsplat.reason.vlm_server import Reply, ScriptedServer, Status
+from queries.schema import graph_query_strict_schema
+from tests.causalsplat.reason.vlm_server import (
+    Counting,
+    Reply,
+    ScriptedServer,
+    Status,
+    count_tokens,
+    strict_schema_problems,
+)
 
 pytestmark = pytest.mark.vlm
 
@@ -63,11 +79,13 @@ def test_valid_program(room: SceneContext) -> None:
     body = server.requests[0]["body"]
     assert server.requests[0]["path"] == "/v1/chat/completions"
     assert body["model"] == "test-model" and body["temperature"] == 0.0
+    assert body["max_tokens"] == 1024
     fmt = body["response_format"]
-    assert fmt["type"] == "json_schema" and fmt["json_schema"]["schema"] == reply_schema()
-    program_schema = dict(GraphQuery.json_schema())
-    program_schema.pop("title")
-    assert fmt["json_schema"]["schema"]["properties"]["program"] == program_schema
+    assert fmt["type"] == "json_schema" and fmt["json_schema"]["strict"] is True
+    assert fmt["json_schema"]["schema"] == reply_schema()
+    assert strict_schema_problems(reply_schema()) == []
+    assert reply_schema()["properties"]["program"] == graph_query_strict_schema()
+    assert reply_schema()["properties"]["target_ids"]["maxItems"] == MAX_TARGET_IDS
     user = body["messages"][1]["content"]
     assert "6 chair |" in user and "Instruction: the chair closest to the lamp" in user
 
@@ -100,7 +118,7 @@ def test_one_bad_reply_is_retried(
     [
         ([Reply("nope"), Reply("still nope")], "VLMReplyError"),
         ([Reply(VALID.replace("[6]", "[99]"))] * 2, "not entities of the scene"),
-        ([Reply(VALID, finish_reason="length")] * 2, "cut off"),
+        ([Reply(VALID, finish_reason="length")] * 2, "VLMTruncatedError"),
         ([Status(500)], "HTTP 500"),
         ([Reply(VALID, delay_s=2.0)], "VLMTimeoutError"),
     ],
@@ -193,3 +211,177 @@ def test_labeler_sends_png_crops_and_parses_labels() -> None:
         client = ChatClient(VLMConfig(base_url=server.base_url, model="vlm-test"))
         with pytest.raises(VLMReplyError):
             VLMLabeler(client).label_crops([crop])
+
+
+# -- what real servers do: token budgets, strict mode, a model that keeps counting -------
+
+
+def valid_reply(explanation_words: int) -> str:
+    """VALID with an explanation of that many words (one token each)."""
+    explanation = " ".join(["word"] * explanation_words)
+    return json.dumps({"program": PROGRAM, "target_ids": [6], "explanation": explanation})
+
+
+def test_cut_off_reply_is_retried_with_a_bigger_budget(room: SceneContext) -> None:
+    long = valid_reply(1500)
+    assert 1024 < count_tokens(long) <= 2048
+    with ScriptedServer() as server:
+        server.script.extend([Reply(long), Reply(long)])  # the model writes the same again
+        answer = reasoner(server).answer(TEXT, room)
+    assert answer.reasoner == "vlm" and answer.fallback is None and answer.entity_ids == (6,)
+    assert "first reply rejected (truncated)" in answer.explanation
+    first, second = server.bodies()
+    assert (first["max_tokens"], second["max_tokens"]) == (1024, 2048)
+    # The retry asks again (no cut-off text sent back, roles still alternate) and says why.
+    assert [m["role"] for m in second["messages"]] == ["system", "user"]
+    assert "cut off after 1024 tokens" in feedback(server, 1)
+    assert "shorter" in feedback(server, 1)
+    # The explanation is kept to the schema's bound.
+    said = next(line for line in answer.explanation.splitlines() if line.startswith("the model:"))
+    assert len(said) <= len("the model: ") + MAX_EXPLANATION_LENGTH
+
+
+def test_cut_off_twice_falls_back_and_says_so(room: SceneContext) -> None:
+    longer = valid_reply(3000)
+    with ScriptedServer() as server:
+        server.script.extend([Reply(longer)] * 2)
+        answer = reasoner(server).answer(TEXT, room)
+        assert [b["max_tokens"] for b in server.bodies()] == [1024, 2048]
+        server.script.extend([Reply(longer)] * 2)
+        with pytest.raises(VLMTruncatedError) as info:
+            reasoner(server, fallback=False).answer(TEXT, room)
+    assert answer.reasoner == "offline" and answer.fallback is not None
+    assert answer.fallback.startswith("VLMTruncatedError: the reply was cut off at max_tokens=2048")
+    assert "the first reply: the reply was cut off at max_tokens=1024" in answer.fallback
+    assert info.value.max_tokens == 2048 and info.value.reason == "truncated"
+
+
+def test_retry_budget_doubles_up_to_a_cap() -> None:
+    assert [retry_budget(n) for n in (1, 1024, 6000, 8192, 20000)] == [2, 2048, 8192, 8192, 20000]
+
+
+def test_a_model_that_keeps_counting_is_bounded_by_the_schema(room: SceneContext) -> None:
+    with ScriptedServer() as server:
+        # Without a bound on target_ids (the old schema), it runs into the budget.
+        server.script.append(Counting(PROGRAM))
+        client = ChatClient(VLMConfig(base_url=server.base_url, model="m", max_tokens=300))
+        loose = {"type": "json_schema", "json_schema": {"name": "x", "schema": {}}}
+        assert client.complete([{"role": "user", "content": TEXT}],
+                               response_format=loose).finish_reason == "length"  # fmt: skip
+        # With the reply schema, the grammar stops it at maxItems: a complete reply, whose
+        # made-up ids are fed back; the retry is answered properly.
+        server.script.extend([Counting(PROGRAM), Reply(VALID)])
+        answer = reasoner(server).answer(TEXT, room)
+    assert answer.reasoner == "vlm" and answer.entity_ids == (6,)
+    assert "first reply rejected (unknown_id)" in answer.explanation
+    assert "are not entities of the scene" in feedback(server, 2)
+    counted = json.loads(server.requests[2]["body"]["messages"][-2]["content"])
+    assert len(counted["target_ids"]) == MAX_TARGET_IDS
+
+
+def test_too_many_target_ids_are_refused(room: SceneContext) -> None:
+    many = json.dumps({"program": PROGRAM, "target_ids": [6] * 40, "explanation": ""})
+    with ScriptedServer() as server:
+        server.script.extend([Reply(many), Reply(VALID)])
+        answer = reasoner(server).answer(TEXT, room)
+    assert answer.reasoner == "vlm" and "first reply rejected (schema)" in answer.explanation
+    assert f"at most {MAX_TARGET_IDS}" in feedback(server, 1)
+
+
+def test_strict_server_accepts_the_reply_schema_and_refuses_the_flat_one(
+    room: SceneContext, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    with ScriptedServer(strict=True) as server:
+        server.script.append(Reply(VALID))
+        assert reasoner(server).answer(TEXT, room).reasoner == "vlm"
+        # The flat program schema (optional properties, maxLength) sent with strict: true
+        # is refused the way OpenAI refuses it: HTTP 400, and the answer says so.
+        flat = {"type": "object", "properties": {"program": GraphQuery.json_schema()},
+                "required": ["program"], "additionalProperties": False}  # fmt: skip
+        old = {
+            "type": "json_schema",
+            "json_schema": {"name": "old", "schema": flat, "strict": True},
+        }
+        monkeypatch.setattr(vlm_module, "response_format", lambda: old)
+        server.script.append(Reply(VALID))
+        answer = reasoner(server).answer(TEXT, room)
+        assert len(server.script) == 1  # refused before any reply was generated
+    assert answer.reasoner == "offline" and answer.fallback is not None
+    assert "HTTP 400" in answer.fallback and "Invalid schema" in answer.fallback
+
+
+def test_strict_replies_with_nulls_are_accepted(room: SceneContext) -> None:
+    nulls = {"value": None, "relation": None, "metric": None, "k": None, "viewpoint": None}
+    steps = [nulls | {"inputs": []} | s for s in PROGRAM["steps"]]  # type: ignore[attr-defined]
+    reply = {"program": PROGRAM | {"steps": steps}, "target_ids": [6], "explanation": "x"}
+    with ScriptedServer() as server:
+        server.script.append(Reply(json.dumps(reply)))
+        answer = reasoner(server).answer(TEXT, room)
+    assert answer.reasoner == "vlm" and answer.program == GraphQuery.parse(PROGRAM)
+
+
+# -- the CLI's token budget ----------------------------------------------------------------
+
+
+@pytest.fixture
+def no_vlm_env(monkeypatch: pytest.MonkeyPatch) -> pytest.MonkeyPatch:
+    for var in ("BASE_URL", "MODEL", "API_KEY", "MAX_TOKENS"):
+        monkeypatch.delenv(f"CAUSALSPLAT_VLM_{var}", raising=False)
+    return monkeypatch
+
+
+def vlm_args(store: Store, server: ScriptedServer) -> list[str]:
+    return ["--scene", "synth-tiny-0", "--db", store.graph_store.url, "--reasoner", "vlm",
+            "--base-url", server.base_url, "--model", "m", "--json"]  # fmt: skip
+
+
+def test_max_tokens_reaches_the_request(
+    tiny_store: Store, tiny_dir: Path, no_vlm_env: pytest.MonkeyPatch
+) -> None:
+    runner = CliRunner()
+    with ScriptedServer() as server:
+        server.script.extend([Reply("not json"), Reply("still not json")])
+        ask = ["ask", "the table", *vlm_args(tiny_store, server)]
+        result = runner.invoke(cli, [*ask, "--max-tokens", "77"])
+        assert result.exit_code == 0, result.output
+        assert json.loads(result.stdout)["fallback"]  # answered offline, and says so
+        assert [b["max_tokens"] for b in server.bodies()] == [77, 77]  # not cut off: same
+        no_vlm_env.setenv("CAUSALSPLAT_VLM_MAX_TOKENS", "99")
+        assert runner.invoke(cli, ask).exit_code == 0
+        assert runner.invoke(cli, [*ask, "--max-tokens", "55"]).exit_code == 0
+        # 503 (empty script): no retry, one request per instruction.
+        assert [b["max_tokens"] for b in server.bodies()[2:]] == [99, 55]
+        server.requests.clear()
+        queries = str(tiny_dir / "queries.json")
+        result = runner.invoke(cli, ["eval", queries, *vlm_args(tiny_store, server),
+                                     "--max-tokens", "640"])  # fmt: skip
+        assert result.exit_code == 0, result.output
+        assert server.requests and {b["max_tokens"] for b in server.bodies()} == {640}
+
+
+@pytest.mark.parametrize("value", ["0", "-3", "abc", "1.5", "", "2e3"])
+@pytest.mark.parametrize("command", ["ask", "eval"])
+def test_invalid_max_tokens_is_one_line(
+    tiny_store: Store, tiny_dir: Path, no_vlm_env: pytest.MonkeyPatch, value: str, command: str
+) -> None:
+    first = ["ask", "the table"] if command == "ask" else ["eval", str(tiny_dir / "queries.json")]
+    with ScriptedServer() as server:
+        result = CliRunner().invoke(cli, [*first, *vlm_args(tiny_store, server),
+                                          "--max-tokens", value])  # fmt: skip
+    assert result.exit_code != 0 and not server.requests
+    assert result.stderr.strip().splitlines() == [
+        f"causalsplat: error: --max-tokens must be a positive integer, got {value!r}"
+    ]
+    assert result.stdout == ""
+
+
+def test_invalid_max_tokens_variable_is_one_line(
+    tiny_store: Store, no_vlm_env: pytest.MonkeyPatch
+) -> None:
+    no_vlm_env.setenv("CAUSALSPLAT_VLM_MAX_TOKENS", "lots")
+    with ScriptedServer() as server:
+        result = CliRunner().invoke(cli, ["ask", "the table", *vlm_args(tiny_store, server)])
+    assert result.exit_code == 1 and len(result.stderr.strip().splitlines()) == 1
+    assert "CAUSALSPLAT_VLM_MAX_TOKENS must be a positive integer, got 'lots'" in result.stderr
+    with pytest.raises(VLMConfigError, match="positive"):
+        VLMConfig(max_tokens=0)

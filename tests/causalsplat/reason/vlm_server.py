@@ -169,7 +169,7 @@ def _strict_refusal(body: dict[str, Any]) -> str | None:
 class ScriptedServer:
     """The server (module docstring); ``strict``: refuse strict schemas OpenAI refuses."""
 
-    def __init__(self, *, strict: bool = False) -> None:
+    def __init__(self, *, strict: bool = True) -> None:
         self.script: deque[Reply | Status | Counting] = deque()
         self.requests: list[dict[str, Any]] = []
         self.strict = strict
