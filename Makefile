@@ -6,7 +6,7 @@ PY := $(VENV)/bin/python
 PIP := $(PY) -m pip install --constraint constraints.txt
 EXTRAS ?= field,embed,vlm,postgres,dev
 
-.PHONY: venv demo test lint typecheck pytest bench bench-store db-check clean
+.PHONY: venv demo test lint typecheck pytest bench bench-store db-check vlm-check clean
 
 comma := ,
 STAMP := $(VENV)/.stamp-$(subst $(comma),_,$(EXTRAS))
@@ -42,6 +42,13 @@ bench-store: $(STAMP)
 
 bench: $(STAMP)
 	$(PY) -m causalsplat bench
+
+# The VLM reasoner against llama.cpp's llama-server and SmolLM2-135M-Instruct on 127.0.0.1
+# (not part of `make test`: the first run builds llama.cpp, ~25 min on 2 cores).
+# make vlm-check [QUERIES=FILE SCENE=ID DB=URL] [REPORT=FILE]; see scripts/vlm_check.sh.
+REPORT ?= vlm-check-report.json
+vlm-check: $(STAMP)
+	PY=$(PY) bash scripts/vlm_check.sh "$(QUERIES)" "$(REPORT)"
 
 clean:
 	rm -rf $(VENV) build *.egg-info .pytest_cache .mypy_cache .ruff_cache
