@@ -1,7 +1,7 @@
 """The knowledge table (``causalsplat/reason/data/knowledge.toml``) and its loader.
 
 Coverage: every ScanNet200 category is an entry; every category of the synthetic
-vocabulary resolves; every raw ScanNet object label used in at least 5 scans (read from the
+vocabulary resolves; every raw ScanNet object label used in at least 2 scans (read from the
 ReferIt3D object tables under ``../shared/data``, skipped when absent) is an entry key or an
 alias. Then the review rules of the table, the loader's lookups and its schema errors.
 """
@@ -92,7 +92,7 @@ ROOMS = frozenset({
 })  # fmt: skip
 
 #: Raw labels count when they occur in at least this many scans.
-MIN_SCANS = 5
+MIN_SCANS = 2
 
 
 @pytest.fixture(scope="module")
