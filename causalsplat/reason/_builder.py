@@ -12,7 +12,8 @@ from __future__ import annotations
 from typing import Any
 
 from causalsplat.reason.context import SceneContext
-from queries import GraphQuery, QueryResult
+from graph_store import RelationType
+from queries import GraphQuery, Metric, Op, QueryResult
 from queries.model import MAX_SET_INPUTS
 
 SCENE = 0
@@ -27,12 +28,31 @@ class ProgramBuilder:
         self.notes: list[str] = []
         self._values: dict[int, tuple[int, ...] | int | bool] = {}
 
-    def add(self, op: str, *inputs: int, **fields: Any) -> int:
-        """Append a step; returns its index. Identical steps are shared."""
-        step: dict[str, Any] = {"op": op}
+    def add(
+        self,
+        op: Op,
+        *inputs: int,
+        value: str | None = None,
+        relation: RelationType | None = None,
+        metric: Metric | None = None,
+        k: int | None = None,
+        viewpoint: dict[str, list[float]] | None = None,
+    ) -> int:
+        """Append a step; returns its index. Identical steps are shared. ``op``,
+        ``relation`` and ``metric`` are the language's enums (a string is refused, so a
+        misspelt name fails where it is written)."""
+        if not isinstance(op, Op):
+            raise TypeError(f"op must be a queries.Op, not {op!r}")
+        if relation is not None and not isinstance(relation, RelationType):
+            raise TypeError(f"relation must be a RelationType, not {relation!r}")
+        if metric is not None and not isinstance(metric, Metric):
+            raise TypeError(f"metric must be a queries.Metric, not {metric!r}")
+        step: dict[str, Any] = {"op": op.value}
         if inputs:
             step["inputs"] = list(inputs)
-        step.update({k: v for k, v in fields.items() if v is not None})
+        fields = {"value": value, "relation": relation, "metric": metric, "k": k,
+                  "viewpoint": viewpoint}  # fmt: skip
+        step.update({key: getattr(v, "value", v) for key, v in fields.items() if v is not None})
         for i, existing in enumerate(self.steps):
             if existing == step:
                 return i
@@ -44,7 +64,7 @@ class ProgramBuilder:
         unique = list(dict.fromkeys(inputs))
         while len(unique) > 1:
             chunks = [unique[i : i + MAX_SET_INPUTS] for i in range(0, len(unique), MAX_SET_INPUTS)]
-            unique = [c[0] if len(c) == 1 else self.add("union", *sorted(c)) for c in chunks]
+            unique = [c[0] if len(c) == 1 else self.add(Op.UNION, *sorted(c)) for c in chunks]
         return unique[0]
 
     def value(self, index: int) -> tuple[int, ...]:

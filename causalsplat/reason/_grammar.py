@@ -11,6 +11,8 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
+from queries import Metric, Op
+
 #: Relation kinds a cue can name. Stored relations keep their RelationType value;
 #: ``closest`` / ``farthest`` / ``between`` / ``with`` are handled by the planner.
 _SIDE = r"(?:(?:to|on|at|towards?) )?(?:the )?(?:(?:far|very) )?"
@@ -93,8 +95,28 @@ ACTION_TRIGGERS = re.compile(
     r"\b(?:something|somewhere|anything|anywhere|someplace|place|thing|things|stuff|"
     r"objects?|items?|what|where) (?:to|that|which|for|i|you)\b|"
     r"\b(?:i|we) (?:want|need|would like|wanna|have|am going) to\b|"
-    r"\b(?:used|good|useful) (?:to|for)\b"
+    r"\b(?:used|good|useful) (?:to|for)\b|"
+    r"\b(?:i|we)(?: really| just| also| still| now| badly)? (?:need|want|require|desire|"
+    r"wish|hope|must|should|would like|like|am seeking|am looking for|am searching for|"
+    r"am after|have to|got to|gotta)\b"
 )
+#: Where the purpose clause of a need begins: right after one of these ("where can I |heat
+#: up soup", "I need a place to |keep my food cold", "something for |cleaning").
+PURPOSE_FRAMES = re.compile(
+    r"\b(?:can|could|may|should|might|would|do) (?:i|we|you|one|someone)\b|"
+    r"\b(?:want|wants|need|needs|like|wanna|going|have|has|trying|try|hoping|hope|wish|"
+    r"plan|planning) to\b|"
+    r"\b(?:something|somewhere|anything|anywhere|someplace|place|spot|thing|things|stuff|"
+    r"way|where|it|them|one|item|items|object|objects) (?:to|for|that i can|i can|we can)\b|"
+    r"\b(?:used|good|useful|meant|made) (?:to|for)\b|\bin order to\b|\bso (?:that )?i can\b"
+)
+#: Verbs of getting or finding: their object is the thing wanted itself ("where can I
+#: find a mug"), not a word of the purpose.
+FETCH_VERBS = frozenset({
+    "find", "get", "grab", "fetch", "bring", "take", "pick", "see", "locate", "reach", "use",
+    "show", "give", "hand", "buy", "borrow", "look", "point", "choose", "select", "identify",
+    "spot", "have",
+})  # fmt: skip
 #: Words that stand for "any entity" as a target.
 GENERIC_TARGETS = frozenset({"one", "ones", "thing", "things", "object", "objects", "item",
                              "items", "something", "anything", "stuff", "everything",
@@ -112,19 +134,18 @@ REMOVAL_TRIGGERS = re.compile(
 FALL_TRIGGERS = re.compile(r"\b(?:fall\w*|fell|drop\w*|collapse\w*|tumble\w*|topple\w*)\b")
 CLOSURE_TRIGGERS = re.compile(r"\b(?:stacked|everything|all (?:the )?things|piled)\b")
 
-#: Superlatives and size adjectives: word -> (metric, "argmax" | "argmin").
-EXTREMES: dict[str, tuple[str, str]] = {
-    "largest": ("volume", "argmax"), "biggest": ("volume", "argmax"),
-    "larger": ("volume", "argmax"), "bigger": ("volume", "argmax"),
-    "large": ("volume", "argmax"), "big": ("volume", "argmax"), "huge": ("volume", "argmax"),
-    "smallest": ("volume", "argmin"), "smaller": ("volume", "argmin"),
-    "small": ("volume", "argmin"), "little": ("volume", "argmin"), "tiny": ("volume", "argmin"),
-    "tallest": ("height", "argmax"), "taller": ("height", "argmax"), "tall": ("height", "argmax"),
-    "shortest": ("height", "argmin"), "shorter": ("height", "argmin"),
-    "short": ("height", "argmin"),
-    "highest": ("z", "argmax"), "higher": ("z", "argmax"), "upper": ("z", "argmax"),
-    "uppermost": ("z", "argmax"), "topmost": ("z", "argmax"),
-    "lowest": ("z", "argmin"), "lower": ("z", "argmin"), "bottommost": ("z", "argmin"),
+#: Superlatives and size adjectives: word -> (metric, argmax or argmin).
+_BIG, _SMALL = (Metric.VOLUME, Op.ARGMAX), (Metric.VOLUME, Op.ARGMIN)
+_TALL, _SHORT = (Metric.HEIGHT, Op.ARGMAX), (Metric.HEIGHT, Op.ARGMIN)
+_HIGH, _LOW = (Metric.Z, Op.ARGMAX), (Metric.Z, Op.ARGMIN)
+EXTREMES: dict[str, tuple[Metric, Op]] = {
+    "largest": _BIG, "biggest": _BIG, "larger": _BIG, "bigger": _BIG, "large": _BIG,
+    "big": _BIG, "huge": _BIG,
+    "smallest": _SMALL, "smaller": _SMALL, "small": _SMALL, "little": _SMALL, "tiny": _SMALL,
+    "tallest": _TALL, "taller": _TALL, "tall": _TALL,
+    "shortest": _SHORT, "shorter": _SHORT, "short": _SHORT,
+    "highest": _HIGH, "higher": _HIGH, "upper": _HIGH, "uppermost": _HIGH, "topmost": _HIGH,
+    "lowest": _LOW, "lower": _LOW, "bottommost": _LOW,
 }  # fmt: skip
 #: Side words (relative to the observer): word -> "left" | "right" | "middle".
 SIDES: dict[str, str] = {
@@ -135,7 +156,8 @@ SIDES: dict[str, str] = {
 STATES: dict[str, str] = {
     "thirsty": "drink", "hungry": "eat", "tired": "sleep", "sleepy": "sleep",
     "cold": "keep warm", "chilly": "keep warm", "dark": "illuminate", "bored": "read",
-    "dirty": "wash", "wet": "dry",
+    "dirty": "wash", "wet": "dry", "exhausted": "sleep", "starving": "eat",
+    "parched": "drink", "freezing": "keep warm", "sweaty": "wash",
 }  # fmt: skip
 #: Words that carry no meaning for affordance matching.
 ACTION_STOPWORDS = frozenset({

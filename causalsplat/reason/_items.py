@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from causalsplat.reason import _grammar as g
 from causalsplat.reason._mentions import CategoryIndex, foreign_at, mention_at
 from causalsplat.reason._text import ORDINALS
+from queries import Metric, Op
 
 #: Side cues: "on the left" (no "of" after it) is a modifier, not a relation.
 _SIDE_CUES = {"side_left": "left", "side_right": "right", "side_middle": "middle"}
@@ -23,12 +24,14 @@ _SIDE_CUES = {"side_left": "left", "side_right": "right", "side_middle": "middle
 
 @dataclass(frozen=True, slots=True)
 class Modifier:
-    """``kind`` is ``attribute`` (``value`` a word), ``extreme`` (``value`` metric,
-    ``direction``), ``side`` (``value`` left/right/middle) or ``ordinal`` (``number``)."""
+    """``kind`` is ``attribute`` (``value`` a word), ``extreme`` (``value`` the word,
+    ``metric`` and ``direction`` what it ranks by), ``side`` (``value`` left/right/middle)
+    or ``ordinal`` (``number``)."""
 
     kind: str
     value: str = ""
-    direction: str = ""
+    direction: Op | None = None
+    metric: Metric | None = None
     number: int = 0
 
 
@@ -50,7 +53,7 @@ class Item:
 def _modifier(word: str, index: CategoryIndex) -> Modifier | None:
     if word in g.EXTREMES:
         metric, direction = g.EXTREMES[word]
-        return Modifier("extreme", metric, direction)
+        return Modifier("extreme", word, direction=direction, metric=metric)
     if word in g.SIDES:
         return Modifier("side", g.SIDES[word])
     if word in ORDINALS:
@@ -68,7 +71,7 @@ def _noun_phrase(mention: object, mods: list[Modifier]) -> object:
     return NounPhrase(
         mention,  # type: ignore[arg-type]
         attributes=tuple(m.value for m in mods if m.kind == "attribute"),
-        extremes=tuple((m.value, m.direction) for m in mods if m.kind == "extreme"),
+        extremes=tuple((m.metric, m.direction) for m in mods if m.kind == "extreme"),
         side=next((m.value for m in mods if m.kind == "side"), None),
         ordinal=next((m.number for m in mods if m.kind == "ordinal"), None),
     )
@@ -76,7 +79,7 @@ def _noun_phrase(mention: object, mods: list[Modifier]) -> object:
 
 def _mods_of(np: object) -> list[Modifier]:
     out = [Modifier("attribute", a) for a in getattr(np, "attributes", ())]
-    out += [Modifier("extreme", m, d) for m, d in getattr(np, "extremes", ())]
+    out += [Modifier("extreme", metric=m, direction=d) for m, d in getattr(np, "extremes", ())]
     return out
 
 

@@ -17,6 +17,35 @@ if TYPE_CHECKING:
 
 
 @dataclass(frozen=True, slots=True)
+class ScoredCandidate:
+    """One candidate category of an answer, ranked by how well it fits the instruction.
+
+    Attributes:
+        category: the category.
+        score: its grounding score (higher fits better; see :mod:`causalsplat.reason.ground`).
+        entity_ids: the scene's entities of that category (local ids, ascending).
+        chosen: whether the answer's program selected it.
+        evidence: why: the description that matched (or the words that named it), then
+            what the relations did with it.
+    """
+
+    category: str
+    score: float
+    entity_ids: tuple[int, ...]
+    chosen: bool
+    evidence: tuple[str, ...]
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "category": self.category,
+            "score": round(self.score, 4),
+            "entities": list(self.entity_ids),
+            "chosen": self.chosen,
+            "evidence": list(self.evidence),
+        }
+
+
+@dataclass(frozen=True, slots=True)
 class Answer:
     """The answer to one instruction on one scene.
 
@@ -39,6 +68,9 @@ class Answer:
         reasoner: the backend that produced the program (``offline`` or ``vlm``).
         requested: the backend that was asked (differs from ``reasoner`` after a fallback).
         fallback: why the requested backend's answer was not used, or ``None``.
+        candidates: the ranked candidate categories with their scores and evidence, best
+            first (empty when the instruction names its target outright and nothing else
+            was scored).
     """
 
     query: str
@@ -53,6 +85,7 @@ class Answer:
     reasoner: str
     requested: str
     fallback: str | None = None
+    candidates: tuple[ScoredCandidate, ...] = ()
     gaussian_mask: np.ndarray | None = field(default=None, compare=False, repr=False)
 
     @property
@@ -78,6 +111,7 @@ class Answer:
             "reasoner": self.reasoner,
             "requested": self.requested,
             "fallback": self.fallback,
+            "candidates": [c.to_dict() for c in self.candidates],
             "gaussians": None if self.gaussian_mask is None else int(self.gaussian_mask.sum()),
         }
 
@@ -91,6 +125,7 @@ def make_answer(
     reasoner: str,
     requested: str | None = None,
     fallback: str | None = None,
+    candidates: tuple[ScoredCandidate, ...] = (),
 ) -> Answer:
     """An :class:`Answer` from a program's result on a scene (fills ids, categories, mask)."""
     program = result.program
@@ -121,6 +156,7 @@ def make_answer(
         reasoner=reasoner,
         requested=requested or reasoner,
         fallback=fallback,
+        candidates=candidates,
         gaussian_mask=mask,
     )
 

@@ -1,20 +1,30 @@
-"""Stage 3 of the offline reasoner: the decision (target ids and the program's last steps).
+"""Stage 3 of the offline reasoner: planning and the decision (the program's steps).
 
-* A referring expression names one entity: when several candidates are left, the one
-  closest to the anchor of the last relation is taken (horizontally for ``above`` and
-  ``below``: the one most directly over or under it), or, with no anchor, the largest;
-  the explanation says so.
+Reads stage 2's :class:`~causalsplat.reason.ground.Grounded` instruction only.
+
+* A referring expression names one entity: the grounded categories, narrowed by the
+  target's relations (:class:`~causalsplat.reason.topology.Planner`); when several
+  candidates are left, the one closest to the anchor of the last relation is taken
+  (horizontally for ``above`` and ``below``: the one most directly over or under it), or,
+  with no anchor, the largest; the explanation says so.
 * A set question keeps every candidate; ``how many`` ends in ``count``, ``is there`` in
   ``exists``.
-* A counterfactual removes the named entities and asks what falls (``fall_if_removed``),
-  or what rests on them transitively (``support_closure``) for "everything stacked on".
-* An action request ("where can I wash my hands?") selects the entities affording the
-  matched affordances (stored ``affordance`` attributes, or the lexicon's affordances of
-  the scene's categories when the scene stores none), then applies the target's relations.
+* A counterfactual removes the grounded entities and asks what falls
+  (``fall_if_removed``), or what rests on them transitively (``support_closure``) for
+  "everything stacked on".
+* A need ("where can I wash my hands?") selects every entity of the categories grounded
+  for it, then applies the relations whose anchors the sentence names outright ("the
+  thing to dry them next to the sink"): a relation that leaves none of the best
+  categories is tried on the top three, then dropped (the explanation says so). A
+  definite singular target with a relation ("the thing ... next to the sink") takes the
+  one closest to the anchor.
+* When grounding finds nothing that fits, the program selects nothing
+  (``difference(scene, scene)``) and the explanation lists the closest candidates:
+  a well-formed sentence is never an error.
 
 The query type (stage 1's classification) follows from what the program does:
-``counterfactual``; ``affordance`` (an action with a relation to an anchor);
-``commonsense`` (an action alone); ``spatial`` (any relation or viewpoint); else
+``counterfactual``; ``affordance`` (a need with a relation to an anchor);
+``commonsense`` (a need alone); ``spatial`` (any relation or viewpoint); else
 ``intrinsic`` (categories, attributes and modifiers only: no topology).
 """
 
@@ -23,13 +33,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from causalsplat.reason._builder import SCENE, ProgramBuilder
-from causalsplat.reason.affordance import match_affordances
-from causalsplat.reason.embed import TextEmbedder
-from causalsplat.reason.errors import InstructionError
-from causalsplat.reason.lexicon import Lexicon
-from causalsplat.reason.parse import Instruction
-from causalsplat.reason.topology import SUM_METRIC, Planner
-from queries import GraphQuery
+from causalsplat.reason.ground import NAMED, Grounded, Grounding
+from causalsplat.reason.parse import Instruction, NounPhrase
+from causalsplat.reason.topology import Planned, Planner
+from queries import GraphQuery, Metric, Op
 
 
 @dataclass(frozen=True, slots=True)
@@ -41,110 +48,144 @@ class Decision:
 
 
 #: How the explanation names what a tie-break metric measures to (other: "both anchors").
-_CLOSEST_TO = {"distance": "the anchor", "horizontal_distance": "the anchor, horizontally"}
+_CLOSEST_TO = {
+    Metric.DISTANCE: "the anchor",
+    Metric.HORIZONTAL_DISTANCE: "the anchor, horizontally",
+}
 
 
-def decide(
-    builder: ProgramBuilder,
-    instruction: Instruction,
-    lexicon: Lexicon,
-    embedder: TextEmbedder | None = None,
-) -> Decision:
-    """Plan and decide (module docstring); raises :class:`InstructionError` when the
-    instruction names nothing the scene holds."""
-    planner = Planner(builder, instruction)
-    ins = instruction
+def decide(builder: ProgramBuilder, grounded: Grounded) -> Decision:
+    """Plan and decide (module docstring); never raises on a grounded instruction."""
+    ins = grounded.instruction
+    planner = Planner(builder, ins)
     if ins.kind == "counterfactual":
-        answer, qtype = _counterfactual(builder, planner, ins), "counterfactual"
+        answer, qtype = _counterfactual(builder, planner, grounded), "counterfactual"
     elif ins.kind == "action":
-        answer, qtype = _action(builder, planner, ins, lexicon, embedder)
+        answer, qtype = _need(builder, planner, grounded)
     else:
-        answer, qtype = _referring(builder, planner, ins)
+        answer, qtype = _referring(builder, planner, grounded)
     return Decision(builder.program(answer, qtype), tuple(builder.notes))
 
 
-def _counterfactual(b: ProgramBuilder, planner: Planner, ins: Instruction) -> int:
+def _nothing(b: ProgramBuilder) -> int:
+    """A step that selects nothing (the answer when nothing here fits)."""
+    return b.add(Op.DIFFERENCE, SCENE, SCENE)
+
+
+def _counterfactual(b: ProgramBuilder, planner: Planner, grounded: Grounded) -> int:
+    ins = grounded.instruction
     removed = []
-    for np in ins.removed:
-        planned = planner.plan(np, singular=False, role="removed")
+    for np, g in zip(ins.removed, grounded.removed, strict=True):
+        if not g.fits:
+            b.note(g.describe())
+            continue
+        if g.how != "named":
+            b.note(g.describe())
+        planned = planner.plan(np, singular=False, role="removed", categories=g.chosen)
         if planned is not None:
             removed.append(planned.step)
     if not removed:
-        raise InstructionError(
-            f"{ins.text!r}: nothing it says is removed is in scene {b.ctx.scene_id!r}"
-        )
+        b.note("nothing it says is removed is in the scene; nothing falls")
+        return b.add(Op.FALL_IF_REMOVED, _nothing(b))
     what = b.union(removed)
     b.note(f"removed: {', '.join(np.text for np in ins.removed)}")
-    return b.add("support_closure" if ins.closure else "fall_if_removed", what)
+    return b.add(Op.SUPPORT_CLOSURE if ins.closure else Op.FALL_IF_REMOVED, what)
 
 
-def _action(
-    b: ProgramBuilder,
-    planner: Planner,
-    ins: Instruction,
-    lexicon: Lexicon,
-    embedder: TextEmbedder | None,
-) -> tuple[int, str]:
-    ctx = b.ctx
-    key = ctx.config.affordance_key
-    stored = ctx.attribute_values(key)
-    if stored:
-        candidates: dict[str, list[str]] = {v: [] for v in stored}
+def _need(b: ProgramBuilder, planner: Planner, grounded: Grounded) -> tuple[int, str]:
+    g = grounded.target
+    assert g is not None
+    b.note(g.describe())
+    if not g.fits:
+        return _nothing(b), "commonsense"
+    if g.affordances:
+        step = b.union([b.add(Op.FILTER_AFFORDANCE, SCENE, value=p) for p, _ in g.affordances])
     else:
-        candidates = {}
-        for category in ctx.categories:
-            for phrase in lexicon.affordances(category):
-                candidates.setdefault(phrase, []).append(category)
-    match = match_affordances(ins.action, list(candidates), lexicon, embedder=embedder)
-    if not match.phrases:
-        raise InstructionError(
-            f"{ins.text!r}: no affordance of scene {ctx.scene_id!r} fits {' '.join(ins.action)!r}"
-        )
-    b.note(f"affordance: {' / '.join(match.phrases)} ({match.method} match)")
-    if stored:
-        parts = [b.add("filter_affordance", SCENE, value=p) for p in match.phrases]
-    else:
-        cats = sorted({c for p in match.phrases for c in candidates[p]})
-        b.note(f"from the lexicon, afforded by: {', '.join(cats)}")
-        parts = [b.add("filter_category", SCENE, value=c) for c in cats]
-    step = b.union(parts)
-    target = ins.target
+        step = b.union([b.add(Op.FILTER_CATEGORY, SCENE, value=c) for c in g.chosen])
+    target = grounded.instruction.target
     related = False
     if target is not None:
+        wider = [c.category for c in g.candidates[:3] if c.score >= g.candidates[0].score * 0.5]
         for constraint in target.constraints:
+            if not all(_named(a) for a in constraint.anchors):
+                b.note(f"relation {constraint.kind!r} not used: its anchor is not named")
+                continue
             out = planner.relation(step, constraint, singular=False, selectors=False)
-            if out is not None:
-                step, related = out.step, True
+            if out is None:
+                continue
+            if b.size(out.step) == 0 and not g.affordances and len(wider) > len(g.chosen):
+                base = b.union([b.add(Op.FILTER_CATEGORY, SCENE, value=c) for c in wider])
+                retry = planner.relation(base, constraint, singular=False, selectors=False)
+                if retry is not None and b.size(retry.step) > 0:
+                    b.note(f"none of {', '.join(g.chosen)} fits the relation; tried the top 3")
+                    out = retry
+            if b.size(out.step) == 0:
+                if _definite(grounded.instruction) and out.anchor is not None:
+                    b.note(f"nothing fits the relation {constraint.kind!r}; took the closest")
+                    step = b.add(Op.ARGMIN, step, out.anchor, metric=Metric.DISTANCE)
+                    related = True
+                else:
+                    b.note(f"nothing fits the relation {constraint.kind!r}; it was not used")
+                continue
+            step, related = _closest_if_singular(b, grounded.instruction, out), True
     return step, ("affordance" if related else "commonsense")
 
 
-def _referring(b: ProgramBuilder, planner: Planner, ins: Instruction) -> tuple[int, str]:
+def _named(np: NounPhrase) -> bool:
+    return np.mention is not None and bool(np.categories) and np.mention.score >= NAMED
+
+
+def _definite(ins: Instruction) -> bool:
+    """The need's target is one definite thing ("the thing", "that one")."""
+    target, tokens = ins.target, ins.main_tokens
+    mention = None if target is None else target.mention
+    return (
+        mention is not None
+        and not mention.plural
+        and 0 < mention.start <= len(tokens)
+        and tokens[mention.start - 1] in ("the", "this", "that")
+    )
+
+
+def _closest_if_singular(b: ProgramBuilder, ins: Instruction, out: Planned) -> int:
+    """ "hand me the thing ... next to the sink" (definite, singular): one entity, the
+    closest to the anchor; "something to sit on near the table": every one that fits."""
+    if _definite(ins) and out.anchor is not None and b.size(out.step) > 1:
+        b.note(f"{b.size(out.step)} fit; took the one closest to the anchor")
+        return b.add(Op.ARGMIN, out.step, out.anchor, metric=Metric.DISTANCE)
+    return out.step
+
+
+def _referring(b: ProgramBuilder, planner: Planner, grounded: Grounded) -> tuple[int, str]:
+    ins = grounded.instruction
     target = ins.target
     assert target is not None
     singular = ins.kind == "refer"
-    planned = planner.plan(target, singular=singular)
-    if planned is None:
-        raise InstructionError(
-            f"{ins.text!r}: names nothing in scene {b.ctx.scene_id!r}"
-            f" (categories: {', '.join(b.ctx.categories[:12])}"
-            f"{', ...' if len(b.ctx.categories) > 12 else ''})"
-        )
+    g: Grounding | None = grounded.target
+    if g is not None and g.how != "named":
+        b.note(g.describe())
+    if g is not None and not g.fits:
+        return _finish(b, ins, _nothing(b)), "intrinsic"
+    planned = planner.plan(target, singular=singular, categories=None if g is None else g.chosen)
+    assert planned is not None  # grounded categories, or any entity
     step = planned.step
     if singular and b.size(step) > 1:
         n = b.size(step)
         if planned.anchor is not None:
-            metric = "horizontal_distance" if planned.vertical else "distance"
-            if planned.between and SUM_METRIC is not None:
-                metric = SUM_METRIC
-            step = b.add("argmin", step, planned.anchor, metric=metric)
+            metric = Metric.HORIZONTAL_DISTANCE if planned.vertical else Metric.DISTANCE
+            step = b.add(Op.ARGMIN, step, planned.anchor, metric=metric)
             what = _CLOSEST_TO.get(metric, "both anchors")
             b.note(f"{n} candidates fit; took the one closest to {what}")
         else:
-            step = b.add("argmax", step, metric="volume")
+            step = b.add(Op.ARGMAX, step, metric=Metric.VOLUME)
             b.note(f"{n} candidates fit; took the largest")
-    if ins.kind == "count":
-        step = b.add("count", step)
-    elif ins.kind == "exists":
-        step = b.add("exists", step)
     topological = bool(target.constraints) or ins.viewpoint is not None
-    return step, ("spatial" if topological else "intrinsic")
+    return _finish(b, ins, step), ("spatial" if topological else "intrinsic")
+
+
+def _finish(b: ProgramBuilder, ins: Instruction, step: int) -> int:
+    if ins.kind == "count":
+        return b.add(Op.COUNT, step)
+    if ins.kind == "exists":
+        return b.add(Op.EXISTS, step)
+    return step

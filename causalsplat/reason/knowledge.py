@@ -68,6 +68,16 @@ class ObjectFacts:
     holds: tuple[str, ...]
     found_in: tuple[str, ...]
 
+    def function_descriptions(self) -> tuple[str, ...]:
+        """What it is and what it is for: ``"<name>: <is_a>"``, ``"<name>: used for <use>"``
+        for each use and ``"<name>: you can <affordance>"`` for each affordance (the
+        sentences the grounding stage scores an instruction against)."""
+        n = self.name
+        out = [f"{n}: {self.is_a}"]
+        out += [f"{n}: used for {u}" for u in self.uses]
+        out += [f"{n}: you can {a}" for a in self.affords]
+        return tuple(out)
+
     def descriptions(self) -> tuple[str, ...]:
         """Short sentences to embed, one per fact, each starting ``"<name>: "``, in this
         order: ``"<name>: <is_a>"``; ``"<name>: used for <use>"`` for each use; ``"<name>:
@@ -76,9 +86,7 @@ class ObjectFacts:
         written without ``the``) when rooms are listed; ``"<name>: also called <a>, <b>"``
         when it has other names."""
         n = self.name
-        out = [f"{n}: {self.is_a}"]
-        out += [f"{n}: used for {u}" for u in self.uses]
-        out += [f"{n}: you can {a}" for a in self.affords]
+        out = list(self.function_descriptions())
         if self.holds:
             out.append(f"{n}: holds {', '.join(self.holds)}")
         if self.found_in:

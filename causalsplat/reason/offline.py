@@ -1,15 +1,33 @@
 """The offline reasoner: deterministic, no network, no GPU, no torch.
 
-Three stages, as in the method: :func:`~causalsplat.reason.parse.parse_instruction`
-(stage 1: what is asked, which phrases name what), :class:`~causalsplat.reason.topology.Planner`
-(stage 2: anchors and relations as program steps) and
-:func:`~causalsplat.reason.decide.decide` (stage 3: the target ids). The program is run by
-the scene's executor; the :class:`~causalsplat.reason.answer.Answer` carries it, its
-result and an explanation.
+One sentence goes once through four stages, each reading only the previous one's output:
 
-Words are matched to the scene's categories through the shipped WordNet lexicon
-(:mod:`causalsplat.reason.lexicon`); with ``embeddings=True`` (or ``"auto"`` and the
-``embed`` extra installed) affordance matching also uses sentence embeddings.
+1. :func:`~causalsplat.reason.parse.parse_instruction` -> :class:`Instruction`: what kind
+   of request it is, the target and anchor phrases, relations, the purpose of a need;
+2. :meth:`Grounder.ground <causalsplat.reason.ground.Grounder.ground>` -> ``Grounded``:
+   every scene category scored against what the instruction asks for (lexicon names,
+   the knowledge table of what objects are for, WordNet definitions, sentence embeddings);
+3. :func:`~causalsplat.reason.decide.decide` -> ``Decision``: the program (relations,
+   modifiers, the decision among several candidates) and the notes explaining it;
+4. the scene's executor runs the program, and the :class:`~causalsplat.reason.answer.Answer`
+   carries it, its result, the ranked candidates and an explanation.
+
+Meaning is scored with sentence embeddings when the ``embed`` extra is installed
+(``embeddings="auto"``, the default), else by WordNet word overlap; ``embeddings=False``
+forces the latter. A well-formed sentence never raises: when nothing in the scene fits, the
+answer is empty and its explanation and candidates say what came closest.
+
+>>> from causalsplat.objects import objects_to_scene_graph, parse_objects
+>>> doc = {"scene_id": "flat", "objects": [
+...     {"id": 1, "label": "sink", "center": [0, 0, 0.9], "size": [0.6, 0.5, 0.2]},
+...     {"id": 2, "label": "bed", "center": [3, 0, 0.3], "size": [2, 1.6, 0.6]},
+...     {"id": 3, "label": "refrigerator", "center": [0, 3, 0.9], "size": [0.8, 0.7, 1.8]}]}
+>>> ctx = SceneContext(objects_to_scene_graph(parse_objects(doc)))
+>>> reasoner = OfflineReasoner(embeddings=False)
+>>> reasoner.answer("I need somewhere to keep the milk cold", ctx).categories
+('refrigerator',)
+>>> reasoner.answer("where can I wash my hands?", ctx).categories
+('sink',)
 """
 
 from __future__ import annotations
@@ -18,34 +36,52 @@ from typing import Literal
 
 from causalsplat.reason._builder import ProgramBuilder
 from causalsplat.reason._mentions import CategoryIndex
-from causalsplat.reason.answer import Answer, make_answer
+from causalsplat.reason._text import tokenize
+from causalsplat.reason.answer import Answer, ScoredCandidate, make_answer
 from causalsplat.reason.context import SceneContext
 from causalsplat.reason.decide import decide
 from causalsplat.reason.embed import TextEmbedder, embeddings_available, load_embedder
+from causalsplat.reason.errors import InstructionError
+from causalsplat.reason.ground import Grounded, Grounder, Grounding
+from causalsplat.reason.knowledge import Knowledge, load_knowledge
 from causalsplat.reason.lexicon import Lexicon, load_lexicon
+from causalsplat.reason.meaning import EmbeddingMeaning, LexicalMeaning, MeaningScorer
 from causalsplat.reason.parse import Instruction, parse_instruction
+from queries import QueryResult
 
 EmbeddingChoice = bool | Literal["auto"]
+#: Longest instruction, in characters.
+MAX_INSTRUCTION = 2000
 _INDEX_KEY = "offline:category-index"
+_GROUNDER_KEY = "offline:grounder"
 
 
 class OfflineReasoner:
     """Rule-based reasoning over a stored scene graph (module docstring).
 
     Args:
-        embeddings: ``False`` (default): lexical matching only. ``True``: also sentence
-            embeddings; raises ``ImportError`` with the install hint when the ``embed``
-            extra is missing. ``"auto"``: embeddings when the extra is installed.
+        embeddings: ``"auto"`` (default): sentence embeddings when the ``embed`` extra is
+            installed; ``True``: required (``ImportError`` with the install hint when the
+            extra is missing); ``False``: WordNet word overlap only.
         lexicon: a lexicon to use instead of the shipped one.
+        knowledge: a knowledge table to use instead of the shipped one.
     """
 
     name = "offline"
 
-    def __init__(self, *, embeddings: EmbeddingChoice = False, lexicon: Lexicon | None = None):
+    def __init__(
+        self,
+        *,
+        embeddings: EmbeddingChoice = "auto",
+        lexicon: Lexicon | None = None,
+        knowledge: Knowledge | None = None,
+    ):
         self._lexicon = lexicon
+        self._knowledge = knowledge
         self.embedder: TextEmbedder | None = None
         if embeddings is True or (embeddings == "auto" and embeddings_available()):
             self.embedder = load_embedder()
+        self._scorer: MeaningScorer | None = None
 
     def __repr__(self) -> str:
         return f"OfflineReasoner(embeddings={self.embedder is not None})"
@@ -55,6 +91,21 @@ class OfflineReasoner:
         if self._lexicon is None:
             self._lexicon = load_lexicon()
         return self._lexicon
+
+    @property
+    def knowledge(self) -> Knowledge:
+        if self._knowledge is None:
+            self._knowledge = load_knowledge()
+        return self._knowledge
+
+    @property
+    def scorer(self) -> MeaningScorer:
+        if self._scorer is None:
+            if self.embedder is not None:
+                self._scorer = EmbeddingMeaning(self.embedder)
+            else:
+                self._scorer = LexicalMeaning(self.lexicon)
+        return self._scorer
 
     def index(self, ctx: SceneContext) -> CategoryIndex:
         """The scene's category index (built once per scene context)."""
@@ -67,19 +118,78 @@ class OfflineReasoner:
             index = ctx.cache[_INDEX_KEY] = CategoryIndex(ctx.categories, self.lexicon, words)
         return index  # type: ignore[no-any-return]
 
+    def grounder(self, ctx: SceneContext) -> Grounder:
+        """The scene's grounding stage (built once per scene context and scorer)."""
+        key = f"{_GROUNDER_KEY}:{self.scorer.method}"
+        grounder = ctx.cache.get(key)
+        if grounder is None or grounder.lexicon is not self.lexicon:
+            grounder = Grounder(ctx, self.index(ctx), self.lexicon, self.knowledge, self.scorer)
+            ctx.cache[key] = grounder
+        return grounder  # type: ignore[no-any-return]
+
     def parse(self, text: str, ctx: SceneContext) -> Instruction:
-        """Stage 1 only."""
+        """Stage 1 only; raises :class:`InstructionError` for input that is not an
+        instruction (see :func:`check_instruction`)."""
+        check_instruction(text)
         return parse_instruction(text, self.index(ctx))
 
+    def ground(self, text: str, ctx: SceneContext) -> Grounded:
+        """Stages 1 and 2."""
+        return self.grounder(ctx).ground(self.parse(text, ctx))
+
     def answer(self, text: str, ctx: SceneContext) -> Answer:
-        """Answer ``text`` on the scene; raises
-        :class:`~causalsplat.reason.errors.InstructionError` when it names nothing there."""
-        instruction = self.parse(text, ctx)
-        builder = ProgramBuilder(ctx)
-        decision = decide(builder, instruction, self.lexicon, self.embedder)
+        """Answer ``text`` on the scene (module docstring)."""
+        grounded = self.ground(text, ctx)
+        decision = decide(ProgramBuilder(ctx), grounded)
         result = ctx.run(decision.program)
-        lines = [f"read as: {_describe(instruction)}", *decision.notes, result.explain()]
-        return make_answer(ctx, text, result, explanation="\n".join(lines), reasoner=self.name)
+        lines = [f"read as: {_describe(grounded.instruction)}", *decision.notes, result.explain()]
+        return make_answer(
+            ctx,
+            text,
+            result,
+            explanation="\n".join(lines),
+            reasoner=self.name,
+            candidates=scored_candidates(ctx, grounded, result),
+        )
+
+
+def check_instruction(text: object) -> str:
+    """``text`` when it can be an instruction; else :class:`InstructionError`: not a
+    string, longer than :data:`MAX_INSTRUCTION` characters, or without a single word
+    (empty, blank, control characters or punctuation only)."""
+    if not isinstance(text, str):
+        raise InstructionError(f"an instruction must be a string, not {type(text).__name__}")
+    if len(text) > MAX_INSTRUCTION:
+        raise InstructionError(
+            f"instruction is {len(text)} characters long; it must be at most {MAX_INSTRUCTION}"
+        )
+    if not any(t.isalnum() for t in tokenize(text)):
+        raise InstructionError("instruction has no words (empty, blank or punctuation only)")
+    return text
+
+
+def scored_candidates(
+    ctx: SceneContext, grounded: Grounded, result: QueryResult
+) -> tuple[ScoredCandidate, ...]:
+    """The answer's ranked candidates: the grounding of its target (or of the first
+    removed phrase of a counterfactual), with each category's entities and evidence."""
+    g: Grounding | None = grounded.target
+    if g is None and grounded.removed:
+        g = grounded.removed[0]
+    if g is None:
+        return ()
+    answered = set(result.answer) if isinstance(result.answer, tuple) else None
+    out = []
+    for c in g.candidates:
+        ids = tuple(sorted(e.id for e in ctx.graph.entities if e.category == c.category))
+        evidence = [c.evidence]
+        chosen = c.category in g.chosen
+        if chosen and grounded.instruction.kind != "counterfactual" and answered is not None:
+            kept = [i for i in ids if i in answered]
+            if len(kept) != len(ids):
+                evidence.append(f"{len(kept)} of its {len(ids)} kept by the relations")
+        out.append(ScoredCandidate(c.category, c.score, ids, chosen, tuple(evidence)))
+    return tuple(out)
 
 
 def _describe(ins: Instruction) -> str:

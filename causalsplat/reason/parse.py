@@ -16,6 +16,7 @@ from causalsplat.reason import _grammar as g
 from causalsplat.reason._items import Item, Modifier, read_items
 from causalsplat.reason._mentions import CategoryIndex, Mention
 from causalsplat.reason._text import tokenize
+from queries import Metric, Op
 
 
 @dataclass(frozen=True, slots=True)
@@ -30,7 +31,7 @@ class NounPhrase:
 
     mention: Mention | None
     attributes: tuple[str, ...] = ()
-    extremes: tuple[tuple[str, str], ...] = ()
+    extremes: tuple[tuple[Metric, Op], ...] = ()
     side: str | None = None
     ordinal: int | None = None
     constraints: tuple[Constraint, ...] = ()
@@ -59,11 +60,13 @@ class NounPhrase:
 @dataclass(frozen=True, slots=True)
 class Constraint:
     """The target is ``kind`` (a relation kind of :mod:`._grammar`) of ``anchors``
-    (two for ``between``); ``negated`` for "not ..."."""
+    (two for ``between``); ``negated`` for "not ..."; ``span``: its tokens ``[start,
+    end)``, the cue to the last anchor (in the tokens after the viewpoint clause)."""
 
     kind: str
     anchors: tuple[NounPhrase, ...]
     negated: bool = False
+    span: tuple[int, int] = (0, 0)
 
 
 @dataclass(frozen=True, slots=True)
@@ -81,6 +84,9 @@ class Instruction:
         viewpoint: the noun phrase of a viewpoint clause ("facing the couch").
         standing_at: the observer stands at the viewpoint entity (else looks at it).
         closure: a counterfactual or set question over everything stacked, transitively.
+        purpose_start: index in ``main_tokens`` where the purpose clause of a need begins
+            ("where can I | heat up soup"), or ``None``.
+        main_tokens: the tokens without the viewpoint clause (set for needs).
     """
 
     text: str
@@ -93,6 +99,8 @@ class Instruction:
     standing_at: bool = False
     closure: bool = False
     notes: tuple[str, ...] = field(default=())
+    purpose_start: int | None = None
+    main_tokens: tuple[str, ...] = ()
 
     @property
     def is_intrinsic(self) -> bool:
@@ -131,11 +139,16 @@ def parse_instruction(text: str, index: CategoryIndex) -> Instruction:
         return Instruction(text, tokens, "counterfactual", None, removed=removed,
                            closure=bool(g.CLOSURE_TRIGGERS.search(joined)))  # fmt: skip
     action = _action_words(main_tokens, items)
-    wants = g.ACTION_TRIGGERS.search(joined) or any(t in g.STATES for t in tokens)
-    vague = target is None or target.is_any or not target.resolved
-    if vague and action and wants:
+    purpose, fetch = _purpose(main_tokens)
+    wants = (
+        g.ACTION_TRIGGERS.search(joined)
+        or purpose is not None
+        or any(t in g.STATES for t in tokens)
+    )
+    if wants and not _names_what_is_wanted(target, purpose, fetch):
         return Instruction(text, tokens, "action", target, action=action, viewpoint=viewpoint,
-                           standing_at=standing)  # fmt: skip
+                           standing_at=standing, purpose_start=purpose,
+                           main_tokens=main_tokens)  # fmt: skip
     if target is None:
         target = NounPhrase(None)
     if joined.startswith("how many"):
@@ -151,6 +164,34 @@ def parse_instruction(text: str, index: CategoryIndex) -> Instruction:
     closure = kind == "set" and bool(g.CLOSURE_TRIGGERS.search(joined))
     return Instruction(text, tokens, kind, target, viewpoint=viewpoint, standing_at=standing,
                        closure=closure)  # fmt: skip
+
+
+#: Lowest lexicon score of a mention that names a category (see ``ground.NAMED``).
+_NAMED = 0.8
+
+
+def _purpose(tokens: tuple[str, ...]) -> tuple[int | None, bool]:
+    """Where the purpose clause of a need begins, and whether its verb is one of getting
+    or finding ("where can I find a mug": the mug is the thing wanted)."""
+    joined = " ".join(tokens)
+    m = g.PURPOSE_FRAMES.search(joined)
+    if m is None:
+        return None, False
+    start = len(joined[: m.end()].split())
+    rest = [t for t in tokens[start:] if t not in ("me", "us", "to", "go", "and")]
+    return start, bool(rest) and rest[0] in g.FETCH_VERBS
+
+
+def _names_what_is_wanted(target: NounPhrase | None, purpose: int | None, fetch: bool) -> bool:
+    """The target noun names a scene category outright and is the thing wanted, not a word
+    of the purpose ("I need a towel to dry off" names a towel; "where can I heat up a bowl
+    of soup" does not name the bowl as the thing wanted)."""
+    if target is None or target.is_any or target.mention is None:
+        return False
+    mention = target.mention
+    if not mention.categories or mention.score < _NAMED:
+        return False
+    return purpose is None or fetch or mention.start < purpose
 
 
 def _set_question(tokens: tuple[str, ...], target: NounPhrase) -> bool:
@@ -253,9 +294,11 @@ class _Reader:
                 self._noun_phrase(k, it.np)  # type: ignore[arg-type]
             elif it.cue is not None:
                 nested = k == self.last_anchor_end and it.cue.kind == "with"
+                first = k
                 k, constraint = self._constraint(k)
                 if constraint is not None:
-                    self._add(replace(constraint, negated=negated), nested=nested)
+                    span = (items[first].start, items[k - 1].end)
+                    self._add(replace(constraint, negated=negated, span=span), nested=nested)
                     self.last_anchor_end = k
                 negated = False
                 continue
@@ -357,7 +400,7 @@ def _with_modifiers(np: NounPhrase, mods: list[Modifier]) -> NounPhrase:
     return replace(
         np,
         attributes=(*np.attributes, *(m.value for m in mods if m.kind == "attribute")),
-        extremes=(*np.extremes, *((m.value, m.direction) for m in mods if m.kind == "extreme")),
+        extremes=(*np.extremes, *((m.metric, m.direction) for m in mods if m.kind == "extreme")),
         side=np.side or next((m.value for m in mods if m.kind == "side"), None),
         ordinal=np.ordinal or next((m.number for m in mods if m.kind == "ordinal"), None),
     )

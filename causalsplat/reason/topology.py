@@ -31,12 +31,10 @@ from dataclasses import dataclass
 
 from causalsplat.reason._builder import SCENE, ProgramBuilder
 from causalsplat.reason.parse import Constraint, Instruction, NounPhrase
-from queries import Metric
+from graph_store import RelationType
+from queries import Metric, Op
 from queries.semantics import normalise_text
 
-#: The metric ranking candidates by their summed distance to the anchors, when the query
-#: language offers one (a tie-break for "between"); else the distance to the nearest anchor.
-SUM_METRIC = "distance_sum" if "distance_sum" in {m.value for m in Metric} else None
 STORED = ("supported_by", "supports", "above", "below", "inside", "contains")
 VIEW = ("left_of", "right_of", "in_front_of", "behind")
 RELAXATIONS: dict[str, tuple[str, ...]] = {
@@ -87,14 +85,18 @@ class Planner:
 
     # -- candidates ----------------------------------------------------------------------
 
-    def candidates(self, np: NounPhrase, *, role: str) -> int | None:
-        """Step of the entities a phrase's words can name (before relations); ``None``
-        when it names nothing the scene holds."""
+    def candidates(
+        self, np: NounPhrase, *, role: str, categories: tuple[str, ...] | None = None
+    ) -> int | None:
+        """Step of the entities a phrase's words can name (before relations): the grounded
+        ``categories`` when given, else those its words name; ``None`` when it names
+        nothing the scene holds."""
         b = self.b
-        if np.is_any:
+        categories = np.categories if categories is None else categories
+        if np.is_any and not categories:
             step = self._non_structural()
-        elif np.categories:
-            step = b.union([b.add("filter_category", SCENE, value=c) for c in np.categories])
+        elif categories:
+            step = b.union([b.add(Op.FILTER_CATEGORY, SCENE, value=c) for c in categories])
         else:
             b.note(f"{role} {np.text!r}: the scene has nothing called that")
             return None
@@ -107,8 +109,8 @@ class Planner:
         structural = [c for c in self.ctx.categories if self.ctx.config.is_structural(c)]
         if not structural:
             return SCENE
-        parts = [b.add("filter_category", SCENE, value=c) for c in structural]
-        return b.add("difference", SCENE, b.union(parts))
+        parts = [b.add(Op.FILTER_CATEGORY, SCENE, value=c) for c in structural]
+        return b.add(Op.DIFFERENCE, SCENE, b.union(parts))
 
     def _attribute(self, step: int, word: str) -> int:
         b = self.b
@@ -116,7 +118,7 @@ class Planner:
         pairs = [(k, v) for k, v in self.ctx.attribute_pairs() if normalise_text(v) == wanted]
         if not pairs:
             return step
-        filtered = b.union([b.add("filter_attribute", step, value=f"{k}={v}") for k, v in pairs])
+        filtered = b.union([b.add(Op.FILTER_ATTRIBUTE, step, value=f"{k}={v}") for k, v in pairs])
         if b.size(filtered) == 0:
             b.note(f"nothing here is {word}; the word was not used")
             return step
@@ -124,9 +126,16 @@ class Planner:
 
     # -- noun phrases --------------------------------------------------------------------
 
-    def plan(self, np: NounPhrase, *, singular: bool, role: str = "target") -> Planned | None:
-        """Candidates, then relations, then modifiers."""
-        step = self.candidates(np, role=role)
+    def plan(
+        self,
+        np: NounPhrase,
+        *,
+        singular: bool,
+        role: str = "target",
+        categories: tuple[str, ...] | None = None,
+    ) -> Planned | None:
+        """Candidates (``categories`` when grounded), then relations, then modifiers."""
+        step = self.candidates(np, role=role, categories=categories)
         if step is None:
             return None
         last = Planned(step)
@@ -160,7 +169,7 @@ class Planner:
         related = self._related(step, c.kind, a, singular=singular and not c.negated,
                                 selectors=selectors)  # fmt: skip
         if c.negated:
-            return Planned(self.b.add("difference", step, related), None)
+            return Planned(self.b.add(Op.DIFFERENCE, step, related), None)
         anchor = a[0] if len(a) == 1 else self.b.union(a)
         return Planned(related, anchor, between=c.kind == "between", vertical=c.kind in VERTICAL)
 
@@ -169,33 +178,35 @@ class Planner:
     ) -> int:
         b = self.b
         if kind == "closest":
-            return b.add("argmin", step, a[0], metric="distance")
+            return b.add(Op.ARGMIN, step, a[0], metric=Metric.DISTANCE)
         if kind == "farthest":
-            return b.add("argmax", step, a[0], metric="distance")
+            return b.add(Op.ARGMAX, step, a[0], metric=Metric.DISTANCE)
         if kind == "near" and singular and not selectors:
-            return b.add("argmin", step, a[0], metric="distance")
+            return b.add(Op.ARGMIN, step, a[0], metric=Metric.DISTANCE)
         if kind == "between":
             # "between the two chairs": one anchor set whose members are both ends (an
             # entity is never between an anchor and itself, so A x A pairs distinct ends).
             return self._between(step, a[0], a[1] if len(a) > 1 else a[0], singular=singular)
         if kind == "with":
-            out = b.add("relate", step, a[0], relation="supports")
+            out = b.add(Op.RELATE, step, a[0], relation=RelationType.SUPPORTS)
             if b.size(out) == 0:
-                out = b.add("relate", step, a[0], relation="near")
+                out = b.add(Op.RELATE, step, a[0], relation=RelationType.NEAR)
             return self._fallback(step, out, a[0], "with", singular=singular)
         relation = "near" if kind == "near" else kind
-        out = b.add("relate", step, a[0], relation=relation, viewpoint=self._viewpoint(kind))
+        out = b.add(
+            Op.RELATE, step, a[0], relation=RelationType(relation), viewpoint=self._viewpoint(kind)
+        )
         if not singular or b.size(out) > 0:
             return out
         for alt in RELAXATIONS.get(kind, ()):
             relation, _, extreme = alt.partition("+")
-            relaxed = b.add("relate", step, a[0], relation=relation)
+            relaxed = b.add(Op.RELATE, step, a[0], relation=RelationType(relation))
             if b.size(relaxed) == 0:
                 continue
             if extreme:
-                op = "argmax" if extreme == "z_max" else "argmin"
-                relaxed = b.add(op, relaxed, metric="z")
-                which = "highest" if op == "argmax" else "lowest"
+                op = Op.ARGMAX if extreme == "z_max" else Op.ARGMIN
+                relaxed = b.add(op, relaxed, metric=Metric.Z)
+                which = "highest" if op is Op.ARGMAX else "lowest"
                 b.note(f"nothing is {_WORDS[kind]} it; took the {which} of what is near it")
             else:
                 b.note(f"nothing is {_WORDS[kind]} it; read as {_WORDS[relation]!r} instead")
@@ -207,23 +218,23 @@ class Planner:
         if not singular or b.size(out) > 0:
             return out
         b.note(f"nothing is {_WORDS.get(kind, kind)} it; took the closest instead")
-        return b.add("argmin", step, anchor, metric="distance")
+        return b.add(Op.ARGMIN, step, anchor, metric=Metric.DISTANCE)
 
     def _between(self, step: int, a1: int, a2: int, *, singular: bool) -> int:
         b = self.b
-        out = b.add("relate_between", step, a1, a2)
+        out = b.add(Op.RELATE_BETWEEN, step, a1, a2)
         if not singular or b.size(out) > 0:
             return out
         near = b.add(
-            "intersect",
-            b.add("relate", step, a1, relation="near"),
-            b.add("relate", step, a2, relation="near"),
+            Op.INTERSECT,
+            b.add(Op.RELATE, step, a1, relation=RelationType.NEAR),
+            b.add(Op.RELATE, step, a2, relation=RelationType.NEAR),
         )
         if b.size(near) > 0:
             b.note("nothing lies strictly between them; took what is near both")
             return near
         b.note("nothing lies between them; took the closest to either")
-        return b.add("argmin", step, b.union([a1, a2]), metric="distance")
+        return b.add(Op.ARGMIN, step, b.union([a1, a2]), metric=Metric.DISTANCE)
 
     # -- viewpoints and modifiers ------------------------------------------------------
 
@@ -260,11 +271,13 @@ class Planner:
             step = self._side(step, np.side, np.ordinal or 1)
         elif np.side == "middle" and b.size(step) > 2:
             axis, _ = self._side_axis(step)
-            ends = b.union([b.add("argmin", step, metric=axis), b.add("argmax", step, metric=axis)])
-            step = b.add("difference", step, ends)
+            ends = b.union(
+                [b.add(Op.ARGMIN, step, metric=axis), b.add(Op.ARGMAX, step, metric=axis)]
+            )
+            step = b.add(Op.DIFFERENCE, step, ends)
         return step
 
-    def _side_axis(self, step: int) -> tuple[str, float]:
+    def _side_axis(self, step: int) -> tuple[Metric, float]:
         """The horizontal axis closest to the observer's right and its sign: the observer
         looks from the scene centre (or the viewpoint) at the candidates' centroid."""
         ids = self.b.value(step)
@@ -279,15 +292,15 @@ class Planner:
         fx, fy = target[0] - eye[0], target[1] - eye[1]
         rx, ry = fy, -fx  # the observer's right
         if abs(rx) >= abs(ry):
-            return "x", (1.0 if rx >= 0 else -1.0)
-        return "y", (1.0 if ry >= 0 else -1.0)
+            return Metric.X, (1.0 if rx >= 0 else -1.0)
+        return Metric.Y, (1.0 if ry >= 0 else -1.0)
 
     def _side(self, step: int, side: str, nth: int) -> int:
         b = self.b
         axis, sign = self._side_axis(step)
-        op = "argmax" if (side == "right") == (sign > 0) else "argmin"
+        op = Op.ARGMAX if (side == "right") == (sign > 0) else Op.ARGMIN
         if nth <= 1:
             return b.add(op, step, metric=axis)
         upto = b.add(op, step, metric=axis, k=nth)
         before = b.add(op, step, metric=axis, k=nth - 1)
-        return b.add("difference", upto, before)
+        return b.add(Op.DIFFERENCE, upto, before)

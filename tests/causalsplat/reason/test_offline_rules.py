@@ -14,7 +14,7 @@ from causalsplat.reason import InstructionError, SceneContext
 from causalsplat.reason.offline import OfflineReasoner
 from queries import GraphQuery, Op
 
-REASONER = OfflineReasoner()
+REASONER = OfflineReasoner(embeddings=False)  # the lexical path; embeddings: test_embed.py
 
 
 def ask(ctx: SceneContext, text: str) -> tuple[int, ...]:
@@ -124,13 +124,40 @@ def test_count_and_exists(room: SceneContext) -> None:
     assert REASONER.answer("is there a lamp?", room).value is True
 
 
-def test_affordances_come_from_the_lexicon_when_none_are_stored(room: SceneContext) -> None:
+def test_needs_are_grounded_by_what_objects_are_for(room: SceneContext) -> None:
     answer = REASONER.answer("where can I sit down?", room)
     assert answer.query_type == "commonsense"
-    assert answer.entity_ids == (5, 6, 7, 10)  # chairs and the couch
+    assert answer.entity_ids == (5, 6, 7)  # the chairs: the best-fitting category
+    ranked = [c.category for c in answer.candidates]
+    assert ranked[:2] == ["chair", "couch"]  # the couch is the runner-up, with its score
+    scores = [c.score for c in answer.candidates]
+    assert scores == sorted(scores, reverse=True) and answer.candidates[0].chosen
+    assert answer.candidates[0].entity_ids == (5, 6, 7)
+    assert answer.candidates[0].evidence[0].startswith("chair: ")
     near = REASONER.answer("something to sit on near the table", room)
-    # the couch counts too: its centroid is within 1.5x the footprint radii of the table
+    # chair and couch tie on "sit" in WordNet overlap; the relation keeps the seats near
+    # the table (the couch's centroid is within 1.5x the footprint radii of the table);
+    # the table, its anchor, is not a candidate
     assert near.query_type == "affordance" and near.entity_ids == (5, 6, 10)
+    assert "table" not in [c.category for c in near.candidates]
+
+
+def test_a_definite_need_with_a_relation_takes_one(room: SceneContext) -> None:
+    answer = REASONER.answer("hand me the thing to sit on next to the couch", room)
+    assert answer.query_type == "affordance" and answer.entity_ids == (5,)
+    # no chair is near the lamp: the closest one is taken, and the explanation says so
+    far = REASONER.answer("hand me the thing to sit on next to the lamp", room)
+    assert far.entity_ids == (6,) and "took the closest" in far.explanation
+
+
+def test_what_the_need_acts_on_is_not_what_it_asks_for(room: SceneContext) -> None:
+    # "cup" is the direct object of the purpose: a cup is what the need acts on
+    answer = REASONER.answer("I need somewhere to put my cup down", room)
+    assert "cup" not in answer.categories and answer.entity_ids
+    grounded = REASONER.ground("I need somewhere to put my cup down", room)
+    assert grounded.target is not None
+    cup = [c for c in grounded.target.candidates if c.category == "cup"]
+    assert not cup or cup[0].acted_on > 0
 
 
 def test_relaxation_is_explained(room: SceneContext) -> None:
@@ -140,9 +167,24 @@ def test_relaxation_is_explained(room: SceneContext) -> None:
     assert "nothing is above it" in answer.explanation
 
 
-def test_unknown_words_raise_a_typed_error(room: SceneContext) -> None:
-    with pytest.raises(InstructionError, match="names nothing"):
-        REASONER.answer("the piano", room)
+def test_a_sentence_naming_nothing_here_fits_nothing(room: SceneContext) -> None:
+    for text in ("the piano", "zxqv blorp"):
+        answer = REASONER.answer(text, room)
+        assert answer.entity_ids == (), text
+        assert "nothing here fits" in answer.explanation, text
+        assert answer.result.answer == ()
+
+
+@pytest.mark.parametrize("text", ["", "   ", "\x00\x07\x1b", "?!.", "x" * 2001])
+def test_input_that_is_not_an_instruction_is_a_typed_error(room: SceneContext, text: str) -> None:
+    with pytest.raises(InstructionError) as info:
+        REASONER.answer(text, room)
+    assert "\n" not in str(info.value)
+
+
+def test_a_non_string_is_a_typed_error(room: SceneContext) -> None:
+    with pytest.raises(InstructionError, match="must be a string"):
+        REASONER.answer(b"the chair", room)  # type: ignore[arg-type]
 
 
 def test_answers_are_valid_programs_and_deterministic(room: SceneContext) -> None:

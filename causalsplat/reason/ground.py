@@ -1,0 +1,410 @@
+"""Stage 2 of the offline reasoner: grounding what an instruction asks for in the scene.
+
+:func:`ground` reads stage 1's :class:`~causalsplat.reason.parse.Instruction` and scores
+every category of the scene against what it asks for. Planning (stage 3) only reads the
+resulting :class:`Grounded` instruction.
+
+Each category is described by short texts (:func:`describe`): what it is and is for in the
+shipped knowledge table (:mod:`causalsplat.reason.knowledge`), its WordNet
+definition (most frequent sense first, so a *can* is a container before it is a toilet),
+its name, and what its entities store as ``affordance`` or ``caption`` attributes (from the
+VLM labeller or an objects file). A text is scored against the instruction by a
+:class:`~causalsplat.reason.meaning.MeaningScorer` (sentence embeddings, or WordNet word
+overlap without them); a category's *meaning* score is the mean of its two best texts'
+scores, and the best text is the evidence shown with the answer.
+
+How the two signals combine, by what the instruction's target is:
+
+* **named** (a lexical rule, reliable): the target noun names scene categories (by name,
+  synonym or head noun; or through WordNet, a hyponym or a near spelling) and is the thing
+  wanted itself, not a word inside a purpose clause ("the chair by the door", "I need a
+  towel to dry off", "where can I find a mug"). Those categories are taken, with their
+  lexicon score. Stage 1 reads a need whose target scores below :data:`NAMED` or sits in
+  the purpose clause as an intent.
+* **intent**: a need or purpose ("I need a place to keep my food cold", "where can I heat
+  up soup?", "I'm thirsty"). Every category gets ``meaning - PATIENT * acted_on``, where
+  ``acted_on`` is the lexicon score of the category when the purpose clause names it as
+  the direct object of its verb: that is what the need acts on, not what it asks for
+  ("hang my towels" asks for a rack, "decorate the walls" for a picture; "sit on the
+  couch", after a preposition, keeps the couch). The floor, walls and ceiling bound the
+  room and answer a need only when named; the anchors of the need's relations ("near the
+  table") are where to look, not what is asked for, and are left out. A category the need
+  acts on is scored without the words that name it. The best category is taken, with
+  every category tied with it (two labels of one kind of object share their facts). When the
+  scene stores what its entities afford (``affordance`` attributes), the stored phrases
+  that fit the need best select the entities instead, across categories.
+* **described**: the target noun names nothing the scene holds ("the vase" in a room
+  without one), or nothing in the sentence reads as a noun phrase: categories are ranked
+  by the meaning of the phrase (or the sentence); the best is taken only when it scores at
+  least :data:`DESCRIBED` (the explanation says what was read as what).
+
+When the best score is below :data:`FITS`, nothing is taken: the answer is an explicit
+"nothing here fits" that lists the closest candidates. Grounding never raises.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from causalsplat.reason._grammar import DETERMINERS
+from causalsplat.reason._mentions import CategoryIndex, mention_at
+from causalsplat.reason.affordance import match_affordances
+from causalsplat.reason.context import SceneContext
+from causalsplat.reason.knowledge import Knowledge, ObjectFacts
+from causalsplat.reason.lexicon import Lexicon
+from causalsplat.reason.meaning import MeaningScorer
+from causalsplat.reason.parse import Constraint, Instruction, NounPhrase
+
+if TYPE_CHECKING:
+    from collections.abc import Iterable
+
+#: Lowest lexicon score of a mention that names a category (name 1.0, base form 0.98,
+#: synonym 0.9, head noun 0.8; hypernyms and foreign nouns score 0.6 or less).
+NAMED = 0.8
+#: How much a category loses when the need names it as what it acts on.
+PATIENT = 0.15
+#: Lowest score a category must reach to meet a need; below it, nothing here fits.
+FITS = 0.1
+#: Lowest score a category must reach to stand for a noun (or a sentence) that names
+#: nothing the scene holds ("the piano" in a room without one fits nothing).
+DESCRIBED = 0.6
+#: Candidates kept on an answer.
+TOP_K = 5
+#: Scores within this of the best are ties.
+TIE = 1e-6
+#: Dataset labels that name no kind of object (ScanNet's catch-all ``object``, NYU's
+#: ``otherprop``...): they can be named outright but never answer a need.
+UNSPECIFIC = frozenset({"object", "objects", "otherprop", "otherfurniture", "otherstructure",
+                        "stuff", "thing", "things", "item", "items", "unknown", "misc",
+                        "structure", "furniture", "clutter"})  # fmt: skip
+#: Words between a preposition and its noun ("on my own desk").
+_POSSESSIVES = frozenset({"my", "your", "our", "his", "her", "their", "its", "own"})
+#: Prepositions after which a named thing is where or with what the need is met.
+_PREPOSITIONS = frozenset({"on", "in", "at", "into", "onto", "upon", "with", "using", "from",
+                           "under", "near", "inside", "beside", "by", "over", "off"})  # fmt: skip
+#: Attribute keys whose values describe what an entity is or is for.
+_DESCRIBING_KEYS = ("caption",)
+_DESCRIPTIONS_KEY = "ground:descriptions"
+
+
+@dataclass(frozen=True, slots=True)
+class Candidate:
+    """One scene category scored against the instruction.
+
+    ``score``: what ranks it (``meaning - PATIENT * acted_on`` for an intent, the lexicon
+    score for a named target); ``meaning``: the mean of its two best description scores;
+    ``acted_on``: the lexicon score of its mention as what the need acts on (0 when none);
+    ``evidence``: the description that scored best (or the words that named it).
+    """
+
+    category: str
+    score: float
+    meaning: float
+    acted_on: float
+    evidence: str
+
+
+@dataclass(frozen=True, slots=True)
+class Grounding:
+    """How one noun phrase (or the instruction's need) was grounded.
+
+    ``how``: ``named``, ``intent`` or ``described``; ``query``: the text that was scored;
+    ``candidates``: scene categories, best first (at most :data:`TOP_K`, named ones first);
+    ``chosen``: the categories the plan selects (empty: nothing here fits); ``method``:
+    ``lexicon``, ``embedding`` or ``lexical``; ``affordances``: for a need on a scene that
+    stores what its entities afford, the stored phrases the plan selects by instead of
+    categories, with their scores.
+    """
+
+    how: str
+    query: str
+    candidates: tuple[Candidate, ...]
+    chosen: tuple[str, ...]
+    method: str
+    affordances: tuple[tuple[str, float], ...] = ()
+
+    @property
+    def fits(self) -> bool:
+        return bool(self.chosen or self.affordances)
+
+    def describe(self) -> str:
+        """One line for the explanation."""
+        if self.how == "named":
+            return f"named: {', '.join(self.chosen)}"
+        if self.affordances:
+            stored = ", ".join(f"{p!r} {v:.2f}" for p, v in self.affordances)
+            return f"{self.how} {self.query!r} -> stored affordance {stored} ({self.method})"
+        top = ", ".join(f"{c.category} {c.score:.2f}" for c in self.candidates[:3])
+        if not self.chosen:
+            return f"nothing here fits {self.query!r} (closest: {top or 'none'})"
+        best = self.candidates[0]
+        return (
+            f"{self.how} {self.query!r} -> {', '.join(self.chosen)} ({self.method}; "
+            f"best: {best.evidence!r}; ranked: {top})"
+        )
+
+
+@dataclass(frozen=True, slots=True)
+class Grounded:
+    """Stage 2's output: the instruction with its target (and removed phrases) grounded."""
+
+    instruction: Instruction
+    target: Grounding | None
+    removed: tuple[Grounding, ...] = field(default=())
+
+
+class Grounder:
+    """Grounds instructions on one scene (its category descriptions are built once)."""
+
+    def __init__(
+        self,
+        ctx: SceneContext,
+        index: CategoryIndex,
+        lexicon: Lexicon,
+        knowledge: Knowledge,
+        scorer: MeaningScorer,
+    ) -> None:
+        self.ctx = ctx
+        self.index = index
+        self.lexicon = lexicon
+        self.knowledge = knowledge
+        self.scorer = scorer
+        key = (_DESCRIPTIONS_KEY, id(knowledge), id(lexicon))
+        cached = ctx.cache.get(str(key))
+        if cached is None:
+            cached = ctx.cache[str(key)] = _scene_descriptions(ctx, lexicon, knowledge)
+        self.texts: tuple[str, ...] = cached[0]
+        self.owner: np.ndarray = cached[1]
+
+    # -- the stage -----------------------------------------------------------------------
+
+    def ground(self, ins: Instruction) -> Grounded:
+        """Stage 2 (module docstring)."""
+        if ins.kind == "counterfactual":
+            removed = tuple(self.phrase(np) for np in ins.removed)
+            return Grounded(ins, None, removed)
+        target = ins.target
+        if ins.kind == "action":
+            return Grounded(ins, self.intent(ins))
+        if target is None or (target.mention is None and not target.constraints):
+            # nothing in it reads as a noun phrase: what does the sentence as a whole mean?
+            return Grounded(ins, self._rank("described", ins.text.strip(), {}, fits=DESCRIBED))
+        if target.is_any:
+            return Grounded(ins, None)
+        return Grounded(ins, self.phrase(target))
+
+    def phrase(self, np: NounPhrase) -> Grounding:
+        """A noun phrase: the categories its words name (by name, synonym, head noun, or
+        through WordNet: a hyponym or a near spelling of a category), else the best by the
+        meaning of its words."""
+        if np.categories and np.mention is not None:
+            score = np.mention.score
+            named = tuple(
+                Candidate(c, score, 0.0, score, f"named {np.mention.phrase!r}")
+                for c in np.categories
+            )
+            return Grounding("named", np.text, named, np.categories, "lexicon")
+        query = np.text if np.mention is None else np.mention.phrase
+        return self._rank("described", query, {}, fits=DESCRIBED)
+
+    def intent(self, ins: Instruction) -> Grounding:
+        """What the need asks for (module docstring). On a scene that stores what its
+        entities afford, the stored phrases that fit best select the entities (scored by
+        :func:`~causalsplat.reason.affordance.match_affordances`: WordNet overlap with the
+        need's words, averaged with embedding similarity when available): the scene's own
+        statement outranks general knowledge of categories."""
+        constraints = () if ins.target is None else ins.target.constraints
+        anchors = frozenset(c for con in constraints for a in con.anchors for c in a.categories)
+        query = _without_relations(ins, constraints)
+        acted = self.acted_on(ins)
+        # a category is scored without the words that name it as what the need acts on:
+        # "somewhere to put my cup down" does not ask for a cup
+        own: dict[str, float] = {}
+        for c, (a, b, _) in acted.items():
+            words = [t for k, t in enumerate(ins.main_tokens) if not a <= k < b]
+            masked = " ".join(t for t in words if t not in (",", "."))
+            own[c] = self.meaning_of(masked, c)
+        named = {c: v[2] for c, v in acted.items()}
+        ranked = self._rank("intent", query, named, need=True, exclude=anchors, own=own)
+        stored = self.ctx.attribute_values(self.ctx.config.affordance_key)
+        if not stored:
+            return ranked
+        match = match_affordances(
+            ins.action, stored, self.lexicon, embedder=getattr(self.scorer, "embedder", None)
+        )
+        if not match.phrases:
+            return ranked
+        score = dict(match.scores)
+        chosen = tuple((p, score[p]) for p in match.phrases)
+        return replace(ranked, affordances=chosen)
+
+    # -- scoring -------------------------------------------------------------------------
+
+    def acted_on(self, ins: Instruction) -> dict[str, tuple[int, int, float]]:
+        """What the need acts on: categories named outright (lexicon score >= NAMED) inside
+        its purpose clause as the direct object of its verb, not after a preposition
+        ("hang my towels": the towel; "sit on the couch": not the couch), with the
+        tokens that name them and their lexicon score."""
+        tokens = ins.main_tokens
+        start = ins.purpose_start or 0
+        out: dict[str, tuple[int, int, float]] = {}
+        i = start
+        while i < len(tokens):
+            m = mention_at(self.index, tokens, i)
+            if m is None or m.generic:
+                i += 1
+                continue
+            j = i - 1
+            while j >= start and (tokens[j] in DETERMINERS or tokens[j] in _POSSESSIVES):
+                j -= 1
+            after_preposition = j >= start and tokens[j] in _PREPOSITIONS
+            if m.score >= NAMED and not after_preposition:
+                for c in m.categories:
+                    if c not in out or out[c][2] < m.score:
+                        out[c] = (m.start, m.end, m.score)
+            i = m.end
+        return out
+
+    def meaning_of(self, query: str, category: str) -> float:
+        """The meaning score of one category (see :meth:`meaning`)."""
+        k = self.ctx.categories.index(category)
+        rows = np.nonzero(self.owner == k)[0]
+        if not rows.size:
+            return 0.0
+        scores = np.sort(self.scorer.scores(query, [self.texts[i] for i in rows]))[::-1]
+        return float(scores[:2].mean())
+
+    def meaning(self, query: str) -> tuple[np.ndarray, np.ndarray]:
+        """Per category (in ``ctx.categories`` order): the mean of its two best description
+        scores (a category fits when two of its facts agree, not by one stray sentence;
+        the one score when it has a single description), and the index of the best."""
+        n = len(self.ctx.categories)
+        which = np.zeros(n, dtype=np.int64)
+        if not self.texts or not query:
+            return np.zeros(n), which
+        scores = self.scorer.scores(query, self.texts)
+        first = np.full(n, -np.inf)
+        second = np.full(n, -np.inf)
+        for i, (owner, s) in enumerate(zip(self.owner, scores, strict=True)):
+            if s > first[owner]:
+                second[owner], first[owner], which[owner] = first[owner], s, i
+            elif s > second[owner]:
+                second[owner] = s
+        second = np.where(np.isfinite(second), second, first)
+        best = np.where(np.isfinite(first), 0.5 * (first + second), 0.0)
+        return best, which
+
+    def _rank(
+        self,
+        how: str,
+        query: str,
+        acted_on: dict[str, float],
+        *,
+        need: bool = False,
+        exclude: frozenset[str] = frozenset(),
+        fits: float = FITS,
+        own: dict[str, float] | None = None,
+    ) -> Grounding:
+        categories = self.ctx.categories
+        meaning, which = self.meaning(query)
+        cands = []
+        for k, c in enumerate(categories):
+            if c.lower() in UNSPECIFIC or c in exclude:
+                continue
+            if need and self.ctx.config.is_structural(c):
+                continue
+            m = float(meaning[k]) if own is None or c not in own else own[c]
+            named = acted_on.get(c, 0.0)
+            evidence = self.texts[int(which[k])] if self.texts else c
+            cands.append(Candidate(c, m - PATIENT * named, m, named, evidence))
+        cands.sort(key=lambda c: (-c.score, c.category))
+        if not cands or cands[0].score < fits:
+            chosen: tuple[str, ...] = ()
+        else:
+            top = cands[0].score
+            chosen = tuple(sorted(c.category for c in cands if c.score >= top - TIE))
+        return Grounding(how, query, tuple(cands[:TOP_K]), chosen, self.scorer.method)
+
+
+def _without_relations(ins: Instruction, constraints: Iterable[Constraint]) -> str:
+    """The need's words without its relation clauses ("something to sit on | near the
+    table"): the relations are applied to the candidates afterwards, and their anchors'
+    names would pull the meaning towards the anchors."""
+    spans = [c.span for c in constraints if c.span[1] > c.span[0]]
+    if not spans or not ins.main_tokens:
+        return ins.text.strip()
+    kept = [t for i, t in enumerate(ins.main_tokens) if not any(a <= i < b for a, b in spans)]
+    words = [t for t in kept if t not in (",", ".")]
+    return " ".join(words) if any(t.isalnum() for t in words) else ins.text.strip()
+
+
+def facts_for(category: str, knowledge: Knowledge, lexicon: Lexicon) -> ObjectFacts | None:
+    """The knowledge-table entry of a scene category: by its name, its base form, or its
+    head noun ("kitchen cabinets" -> "kitchen cabinet"; "wooden chair" -> "chair")."""
+    words = category.lower().split()
+    if not words:
+        return None
+    keys = [category, " ".join(words), lexicon.phrase_lemma(words)]
+    if len(words) > 1:
+        keys.append(lexicon.lemma(words[-1]))
+    for key in dict.fromkeys(keys):
+        facts = knowledge.get(key)
+        if facts is not None:
+            return facts
+    return None
+
+
+def gloss_of(category: str, lexicon: Lexicon) -> str | None:
+    """WordNet's definition of the most frequent noun sense of the category (or of its
+    head noun)."""
+    words = category.lower().split()
+    if not words:
+        return None
+    for term in dict.fromkeys([lexicon.phrase_lemma(words), lexicon.lemma(words[-1])]):
+        senses = lexicon.noun_senses(term)
+        if senses:
+            return lexicon.gloss(senses[0])
+    return None
+
+
+def describe(
+    category: str,
+    lexicon: Lexicon,
+    knowledge: Knowledge,
+    attributes: Iterable[tuple[str, str]] = (),
+    *,
+    affordance_key: str = "affordance",
+) -> tuple[str, ...]:
+    """The texts that describe a category (module docstring), without duplicates."""
+    texts = [category]
+    facts = facts_for(category, knowledge, lexicon)
+    if facts is not None:
+        texts += facts.function_descriptions()
+    gloss = gloss_of(category, lexicon)
+    if gloss:
+        texts.append(f"{category}: {gloss}")
+    for key, value in attributes:
+        if key == affordance_key:
+            texts.append(f"{category}: you can {value}")
+        elif key in _DESCRIBING_KEYS:
+            texts.append(f"{category}: {value}")
+    return tuple(dict.fromkeys(t for t in texts if t))
+
+
+def _scene_descriptions(
+    ctx: SceneContext, lexicon: Lexicon, knowledge: Knowledge
+) -> tuple[tuple[str, ...], np.ndarray]:
+    attrs: dict[str, set[tuple[str, str]]] = {}
+    for e in ctx.graph.entities:
+        attrs.setdefault(e.category, set()).update((a.key, a.value) for a in e.attributes)
+    texts: list[str] = []
+    owner: list[int] = []
+    key = ctx.config.affordance_key
+    for k, c in enumerate(ctx.categories):
+        for text in describe(c, lexicon, knowledge, sorted(attrs.get(c, ())), affordance_key=key):
+            texts.append(text)
+            owner.append(k)
+    return tuple(texts), np.asarray(owner, dtype=np.int64)
