@@ -4,8 +4,8 @@
 themselves when they are used.
 
 >>> from causalsplat import open_store
->>> store = open_store("sqlite:///scenes.db")
->>> scene = store.scene("scene0000_00")
+>>> store = open_store("sqlite:///scenes.db")       # doctest: +SKIP
+>>> scene = store.scene("scene0000_00")             # doctest: +SKIP
 """
 
 from causalsplat.api import Scene, Store, open_store

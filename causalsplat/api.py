@@ -305,12 +305,16 @@ class Scene:
     def ask(self, text: str, *, reasoner: str | Reasoner = "offline", **options: Any) -> Answer:
         """Answer an instruction with a reasoner (``"offline"``, ``"vlm"`` or an instance).
 
-        ``options`` go to the reasoner (``embeddings=True`` for the offline one; ``config``,
-        ``record``, ``replay``, ``fallback`` for the VLM one). The answer carries the
-        program, its result, the entity ids (``.entity_ids``, ``.external_ids``), a
-        per-Gaussian mask when the scene stores labels, and an explanation. Raises
-        ``InstructionError`` when the offline reasoner finds nothing in the instruction
-        that the scene holds.
+        ``options`` go to the reasoner (``embeddings=False`` for WordNet word overlap only
+        in the offline one, which uses sentence embeddings when the ``embed`` extra is
+        installed; ``config``, ``record``, ``replay``, ``fallback`` for the VLM one). The
+        answer carries the program, its result, the entity ids (``.entity_ids``,
+        ``.external_ids``), the ranked candidates with their scores and evidence
+        (``.candidates``), a per-Gaussian mask when the scene stores labels, and an
+        explanation. A well-formed sentence is never an error: when nothing in the scene
+        fits, the answer is empty and says what came closest. Raises ``InstructionError``
+        only for input that is not an instruction (not a string, no words, or longer than
+        2,000 characters).
         """
         return self._reasoner(reasoner, options).answer(text, self._reasoning_context())
 

@@ -41,29 +41,38 @@ class ColdTiming:
     python_s: float
     import_s: float
     torch_imported: bool
+    ask_cpu_s: float = 0.0
 
 
-def _run(args: list[str], repeats: int) -> tuple[float, str]:
-    times = []
+def _run(args: list[str], repeats: int) -> tuple[float, float, str]:
+    """Median wall and CPU (user + system) seconds of a child process, and its stderr."""
+    import resource
+
+    times, cpu = [], []
     err = ""
     for _ in range(repeats):
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
         start = time.perf_counter()
         proc = subprocess.run(args, capture_output=True, text=True, check=True)
         times.append(time.perf_counter() - start)
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        cpu.append(after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime)
         err = proc.stderr
-    return statistics.median(times), err
+    return statistics.median(times), statistics.median(cpu), err
 
 
 def cold_ask(
-    url: str, scene: str, text: str, *, embeddings: bool = False, repeats: int = 5
+    url: str, scene: str, text: str, *, embeddings: bool | None = False, repeats: int = 5
 ) -> ColdTiming:
-    """Median wall time of a cold ``causalsplat ask`` and of the two baselines."""
-    extra = ', "--embeddings"' if embeddings else ""
+    """Median wall time (and CPU time) of a cold ``causalsplat ask`` and of the two
+    baselines; ``embeddings``: ``False`` passes ``--no-embeddings``, ``True``
+    ``--embeddings``, ``None`` neither (the default: embeddings when installed)."""
+    extra = {False: ', "--no-embeddings"', True: ', "--embeddings"', None: ""}[embeddings]
     code = _CHILD.format(text=text, scene=scene, url=url, extra=extra)
-    ask_s, err = _run([sys.executable, "-c", code], repeats)
-    python_s, _ = _run([sys.executable, "-c", "pass"], repeats)
-    import_s, _ = _run([sys.executable, "-c", "import causalsplat.api"], repeats)
-    return ColdTiming(ask_s, python_s, import_s, "TORCH=True" in err)
+    ask_s, ask_cpu_s, err = _run([sys.executable, "-c", code], repeats)
+    python_s, _, _ = _run([sys.executable, "-c", "pass"], repeats)
+    import_s, _, _ = _run([sys.executable, "-c", "import causalsplat.api"], repeats)
+    return ColdTiming(ask_s, python_s, import_s, "TORCH=True" in err, ask_cpu_s)
 
 
 @dataclass(frozen=True, slots=True)

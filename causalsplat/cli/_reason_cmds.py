@@ -14,7 +14,7 @@ _REASONERS = ("offline", "vlm")
 
 def _options(
     reasoner: str,
-    embeddings: bool,
+    embeddings: bool | None,
     base_url: str | None,
     model: str | None,
     timeout: float | None,
@@ -27,7 +27,7 @@ def _options(
             raise click.UsageError(
                 "--base-url/--model/--max-tokens/--record/--replay need --reasoner vlm"
             )
-        return {"embeddings": True} if embeddings else {}
+        return {} if embeddings is None else {"embeddings": embeddings}
     from causalsplat.openai_compat import VLMConfig, parse_max_tokens
 
     # Parsed here, not by click, so a bad value is one line on stderr (a CausalSplatError).
@@ -50,9 +50,10 @@ def _reasoner_options(func: Any) -> Any:
             help="offline: deterministic rules; vlm: an OpenAI-compatible server.",
         ),
         click.option(
-            "--embeddings",
-            is_flag=True,
-            help="Offline reasoner: also use sentence embeddings (needs the embed extra).",
+            "--embeddings/--no-embeddings",
+            default=None,
+            help="Offline reasoner: score meaning with sentence embeddings (needs the embed"
+            " extra) or with WordNet word overlap only; default: embeddings when installed.",
         ),
         click.option("--base-url", help="VLM server API root ($CAUSALSPLAT_VLM_BASE_URL)."),
         click.option("--model", help="VLM model name ($CAUSALSPLAT_VLM_MODEL)."),
@@ -88,7 +89,7 @@ def ask(
     text: str,
     scene_id: str,
     reasoner: str,
-    embeddings: bool,
+    embeddings: bool | None,
     base_url: str | None,
     model: str | None,
     timeout: float | None,
@@ -122,6 +123,15 @@ def ask(
         click.echo("no entity")
     for e in entities:
         click.echo(f"  {e['id']:>5}  {e['category']:<24} ext={e['external_id']}")
+    if answer.candidates:
+        click.echo("candidates (best first):")
+        for rank, c in enumerate(answer.candidates, 1):
+            mark = "*" if c.chosen else " "
+            ids = ",".join(str(i) for i in c.entity_ids[:6]) + (
+                ",..." if len(c.entity_ids) > 6 else ""
+            )
+            click.echo(f" {mark}{rank}. {c.category:<22} {c.score:5.2f}  [{ids}]  "
+                       f"{'; '.join(c.evidence)}")  # fmt: skip
     click.echo(answer.explanation)
 
 
@@ -139,7 +149,7 @@ def evaluate(
     gt_labels: Path | None,
     scene_id: str,
     reasoner: str,
-    embeddings: bool,
+    embeddings: bool | None,
     base_url: str | None,
     model: str | None,
     timeout: float | None,

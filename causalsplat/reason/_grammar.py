@@ -93,6 +93,8 @@ FUNCTION_WORDS = frozenset({
 ACTION_TRIGGERS = re.compile(
     r"\b(?:can|could|may|should|might) (?:i|we|you|one|someone)\b|"
     r"\b(?:something|somewhere|anything|anywhere|someplace|place|thing|things|stuff|"
+    r"objects?|items?)(?: [a-z]+)? (?:to|for)\b|"
+    r"\b(?:something|somewhere|anything|anywhere|someplace|place|thing|things|stuff|"
     r"objects?|items?|what|where) (?:to|that|which|for|i|you)\b|"
     r"\b(?:i|we) (?:want|need|would like|wanna|have|am going) to\b|"
     r"\b(?:used|good|useful) (?:to|for)\b|"
@@ -107,7 +109,8 @@ PURPOSE_FRAMES = re.compile(
     r"\b(?:want|wants|need|needs|like|wanna|going|have|has|trying|try|hoping|hope|wish|"
     r"plan|planning) to\b|"
     r"\b(?:something|somewhere|anything|anywhere|someplace|place|spot|thing|things|stuff|"
-    r"way|where|it|them|one|item|items|object|objects) (?:to|for|that i can|i can|we can)\b|"
+    r"way|item|items|object|objects)(?: [a-z]+)? (?:to|for|that i can|i can|we can)\b|"
+    r"\b(?:need|needs|want|wants|use) (?:it|them|one) (?:to|for)\b|\bwhere to\b|"
     r"\b(?:used|good|useful|meant|made) (?:to|for)\b|\bin order to\b|\bso (?:that )?i can\b"
 )
 #: Verbs of getting or finding: their object is the thing wanted itself ("where can I

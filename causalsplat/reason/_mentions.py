@@ -3,7 +3,8 @@
 :class:`CategoryIndex` maps noun phrases (head in base form) to the scene's categories
 with a score: the category's own name 1.0 (``kitchen cabinets`` from ``kitchen cabinet``),
 its run-together spelling 1.0 (``bookshelf`` for ``book shelf``), a WordNet synonym 0.9
-(``couch`` for ``sofa``), its head noun alone 0.8 (``cabinet`` for ``kitchen cabinets``),
+(``couch`` for ``sofa``; only a synonym whose most frequent sense is the category's, so
+``can`` does not name a toilet), its head noun alone 0.8 (``cabinet`` for ``kitchen cabinets``),
 a WordNet hypernym within three steps 0.5 minus 0.05 a step (``furniture``, ``seat``).
 Phrases it does not hold are resolved through WordNet the other way (a hyponym of a
 category, ``armchair`` -> ``chair``: 0.6) or by spelling (trigram similarity >= 0.8 with a
@@ -15,6 +16,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from causalsplat.reason._grammar import (
+    DETERMINERS,
     EXTREMES,
     FUNCTION_WORDS,
     GENERIC_TARGETS,
@@ -104,7 +106,10 @@ class CategoryIndex:
         first = senses[0]
         self._sense_of.setdefault(first, []).append(category)
         for synonym in lex.noun_lemmas(first):
-            self._put(synonym, category, 0.9)
+            # a synonym names the category only when that is its own most frequent
+            # sense: "can" is a container before it is a toilet
+            if lex.noun_senses(synonym)[:1] == (first,):
+                self._put(synonym, category, 0.9)
         for hyper, depth in lex.hypernym_closure(first, _HYPERNYM_DEPTH).items():
             if depth == 0:
                 continue
@@ -160,6 +165,8 @@ def mention_at(index: CategoryIndex, tokens: tuple[str, ...], i: int) -> Mention
     generic target word; ``None`` otherwise."""
     if tokens[i] in GENERIC_TARGETS:
         return Mention(i, i + 1, tokens[i], (), 0.0, generic=True, plural=tokens[i].endswith("s"))
+    if tokens[i] in FUNCTION_WORDS and (i == 0 or tokens[i - 1] not in DETERMINERS):
+        return None  # "where can I": a verb; "the can": a noun
     for length in range(min(MAX_PHRASE, len(tokens) - i), 0, -1):
         words = tokens[i : i + length]
         if any(w in (",", ".", "?") for w in words):

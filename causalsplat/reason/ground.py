@@ -30,7 +30,10 @@ How the two signals combine, by what the instruction's target is:
   room and answer a need only when named; the anchors of the need's relations ("near the
   table") are where to look, not what is asked for, and are left out. A category the need
   acts on is scored without the words that name it. The best category is taken, with
-  every category tied with it (two labels of one kind of object share their facts). When the
+  every category tied with it (two labels of one kind of object share their facts) and
+  every category within :data:`WIDEN` of it that affords, by the lexicon's WordNet
+  affordances, what the best one affords for this need ("where can I sit down?": the
+  chairs and the couch). When the
   scene stores what its entities afford (``affordance`` attributes), the stored phrases
   that fit the need best select the entities instead, across categories.
 * **described**: the target noun names nothing the scene holds ("the vase" in a room
@@ -59,7 +62,7 @@ from causalsplat.reason.meaning import MeaningScorer
 from causalsplat.reason.parse import Constraint, Instruction, NounPhrase
 
 if TYPE_CHECKING:
-    from collections.abc import Iterable
+    from collections.abc import Callable, Iterable
 
 #: Lowest lexicon score of a mention that names a category (name 1.0, base form 0.98,
 #: synonym 0.9, head noun 0.8; hypernyms and foreign nouns score 0.6 or less).
@@ -73,6 +76,9 @@ FITS = 0.1
 DESCRIBED = 0.6
 #: Candidates kept on an answer.
 TOP_K = 5
+#: A category that affords what the best one affords for a need joins it when it scores
+#: within this of the best.
+WIDEN = 0.05
 #: Scores within this of the best are ties.
 TIE = 1e-6
 #: Dataset labels that name no kind of object (ScanNet's catch-all ``object``, NYU's
@@ -87,7 +93,6 @@ _PREPOSITIONS = frozenset({"on", "in", "at", "into", "onto", "upon", "with", "us
                            "under", "near", "inside", "beside", "by", "over", "off"})  # fmt: skip
 #: Attribute keys whose values describe what an entity is or is for.
 _DESCRIBING_KEYS = ("caption",)
-_DESCRIPTIONS_KEY = "ground:descriptions"
 
 
 @dataclass(frozen=True, slots=True)
@@ -125,6 +130,7 @@ class Grounding:
     chosen: tuple[str, ...]
     method: str
     affordances: tuple[tuple[str, float], ...] = ()
+    shared: tuple[str, ...] = ()
 
     @property
     def fits(self) -> bool:
@@ -141,9 +147,10 @@ class Grounding:
         if not self.chosen:
             return f"nothing here fits {self.query!r} (closest: {top or 'none'})"
         best = self.candidates[0]
+        shared = f"; all that afford {', '.join(self.shared)}" if self.shared else ""
         return (
             f"{self.how} {self.query!r} -> {', '.join(self.chosen)} ({self.method}; "
-            f"best: {best.evidence!r}; ranked: {top})"
+            f"best: {best.evidence!r}; ranked: {top}{shared})"
         )
 
 
@@ -157,27 +164,43 @@ class Grounded:
 
 
 class Grounder:
-    """Grounds instructions on one scene (its category descriptions are built once)."""
+    """Grounds instructions on one scene. What meaning needs (the knowledge table, the
+    scorer and its model, the category descriptions) is loaded on first use: a sentence
+    that names its target outright never loads it."""
 
     def __init__(
         self,
         ctx: SceneContext,
         index: CategoryIndex,
         lexicon: Lexicon,
-        knowledge: Knowledge,
-        scorer: MeaningScorer,
+        knowledge: Callable[[], Knowledge],
+        scorer: Callable[[], MeaningScorer],
     ) -> None:
         self.ctx = ctx
         self.index = index
         self.lexicon = lexicon
-        self.knowledge = knowledge
-        self.scorer = scorer
-        key = (_DESCRIPTIONS_KEY, id(knowledge), id(lexicon))
-        cached = ctx.cache.get(str(key))
-        if cached is None:
-            cached = ctx.cache[str(key)] = _scene_descriptions(ctx, lexicon, knowledge)
-        self.texts: tuple[str, ...] = cached[0]
-        self.owner: np.ndarray = cached[1]
+        self._knowledge = knowledge
+        self._scorer = scorer
+        self._descriptions: tuple[tuple[str, ...], np.ndarray] | None = None
+
+    @property
+    def scorer(self) -> MeaningScorer:
+        return self._scorer()
+
+    @property
+    def texts(self) -> tuple[str, ...]:
+        """Every description of every scene category (built once)."""
+        return self._described()[0]
+
+    @property
+    def owner(self) -> np.ndarray:
+        """``(len(texts),)`` index into ``ctx.categories`` of each description's category."""
+        return self._described()[1]
+
+    def _described(self) -> tuple[tuple[str, ...], np.ndarray]:
+        if self._descriptions is None:
+            self._descriptions = _scene_descriptions(self.ctx, self.lexicon, self._knowledge())
+        return self._descriptions
 
     # -- the stage -----------------------------------------------------------------------
 
@@ -231,7 +254,7 @@ class Grounder:
         ranked = self._rank("intent", query, named, need=True, exclude=anchors, own=own)
         stored = self.ctx.attribute_values(self.ctx.config.affordance_key)
         if not stored:
-            return ranked
+            return self._widen(ins, ranked)
         match = match_affordances(
             ins.action, stored, self.lexicon, embedder=getattr(self.scorer, "embedder", None)
         )
@@ -240,6 +263,38 @@ class Grounder:
         score = dict(match.scores)
         chosen = tuple((p, score[p]) for p in match.phrases)
         return replace(ranked, affordances=chosen)
+
+    def _widen(self, ins: Instruction, ranked: Grounding) -> Grounding:
+        """Every category that affords what the best one affords for this need, by the
+        lexicon's WordNet affordances: "where can I sit down?" takes the stools and the
+        couch with the chairs."""
+        if not ranked.chosen:
+            return ranked
+        lex = self.lexicon
+        offered = sorted({p for c in ranked.chosen for p in lex.affordances(c)})
+        if not offered:
+            return ranked
+        match = match_affordances(
+            ins.action, offered, lex, embedder=getattr(self.scorer, "embedder", None)
+        )
+        if not match.phrases:
+            return ranked
+        wanted = set(match.phrases)
+        score = {c.category: c.score for c in ranked.candidates}
+        top = ranked.candidates[0].score
+        also = [
+            c
+            for c in self.ctx.categories
+            if c not in ranked.chosen
+            and c.lower() not in UNSPECIFIC
+            and not self.ctx.config.is_structural(c)
+            and wanted & set(lex.affordances(c))
+            and score.get(c, -1.0) >= top - WIDEN
+        ]
+        if not also:
+            return ranked
+        return replace(ranked, chosen=tuple(sorted({*ranked.chosen, *also})),
+                       shared=tuple(sorted(wanted)))  # fmt: skip
 
     # -- scoring -------------------------------------------------------------------------
 

@@ -78,13 +78,23 @@ class OfflineReasoner:
     ):
         self._lexicon = lexicon
         self._knowledge = knowledge
-        self.embedder: TextEmbedder | None = None
-        if embeddings is True or (embeddings == "auto" and embeddings_available()):
-            self.embedder = load_embedder()
+        self.uses_embeddings = embeddings is True or (
+            embeddings == "auto" and embeddings_available()
+        )
+        if embeddings is True and not embeddings_available():
+            load_embedder()  # raises the install hint now, not at the first need
+        self._embedder: TextEmbedder | None = None
         self._scorer: MeaningScorer | None = None
 
     def __repr__(self) -> str:
-        return f"OfflineReasoner(embeddings={self.embedder is not None})"
+        return f"OfflineReasoner(embeddings={self.uses_embeddings})"
+
+    @property
+    def embedder(self) -> TextEmbedder | None:
+        """The sentence-embedding model (loaded on first use), or ``None``."""
+        if self._embedder is None and self.uses_embeddings:
+            self._embedder = load_embedder()
+        return self._embedder
 
     @property
     def lexicon(self) -> Lexicon:
@@ -101,8 +111,9 @@ class OfflineReasoner:
     @property
     def scorer(self) -> MeaningScorer:
         if self._scorer is None:
-            if self.embedder is not None:
-                self._scorer = EmbeddingMeaning(self.embedder)
+            embedder = self.embedder
+            if embedder is not None:
+                self._scorer = EmbeddingMeaning(embedder)
             else:
                 self._scorer = LexicalMeaning(self.lexicon)
         return self._scorer
@@ -120,10 +131,12 @@ class OfflineReasoner:
 
     def grounder(self, ctx: SceneContext) -> Grounder:
         """The scene's grounding stage (built once per scene context and scorer)."""
-        key = f"{_GROUNDER_KEY}:{self.scorer.method}"
+        key = f"{_GROUNDER_KEY}:{'embedding' if self.uses_embeddings else 'lexical'}"
         grounder = ctx.cache.get(key)
         if grounder is None or grounder.lexicon is not self.lexicon:
-            grounder = Grounder(ctx, self.index(ctx), self.lexicon, self.knowledge, self.scorer)
+            grounder = Grounder(
+                ctx, self.index(ctx), self.lexicon, lambda: self.knowledge, lambda: self.scorer
+            )
             ctx.cache[key] = grounder
         return grounder  # type: ignore[no-any-return]
 

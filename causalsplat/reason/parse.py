@@ -146,6 +146,7 @@ def parse_instruction(text: str, index: CategoryIndex) -> Instruction:
         or any(t in g.STATES for t in tokens)
     )
     if wants and not _names_what_is_wanted(target, purpose, fetch):
+        target = _place_of_need(_anchor_of_need(target, items))
         return Instruction(text, tokens, "action", target, action=action, viewpoint=viewpoint,
                            standing_at=standing, purpose_start=purpose,
                            main_tokens=main_tokens)  # fmt: skip
@@ -192,6 +193,45 @@ def _names_what_is_wanted(target: NounPhrase | None, purpose: int | None, fetch:
     if not mention.categories or mention.score < _NAMED:
         return False
     return purpose is None or fetch or mention.start < purpose
+
+
+#: Relation cues whose noun, in a need, is where to look rather than what is wanted
+#: ("somewhere to sit near the counter"); after "on" or "in" the noun is where the need
+#: is met ("I want to sit on the couch") and stays the target.
+_NEED_ANCHOR_CUES = frozenset({"near", "left_of", "right_of", "in_front_of", "behind",
+                               "between", "closest", "farthest", "above", "below"})  # fmt: skip
+
+
+def _anchor_of_need(target: NounPhrase | None, items: list[Item]) -> NounPhrase | None:
+    """A need's first noun phrase right after a spatial cue is the anchor of a relation of
+    an unnamed target, not the target."""
+    if target is None or target.mention is None:
+        return target
+    for k, it in enumerate(items):
+        np = it.np
+        if isinstance(np, NounPhrase) and np.mention is not None:
+            if np.mention.start != target.mention.start:
+                continue
+            cue = items[k - 1].cue if k > 0 else None
+            if cue is None or cue.kind not in _NEED_ANCHOR_CUES:
+                return target
+            anchor = replace(target, constraints=())
+            span = (items[k - 1].start, it.end)
+            relation = Constraint(cue.kind, (anchor,), span=span)
+            return NounPhrase(None, constraints=(relation, *target.constraints))
+    return target
+
+
+def _place_of_need(target: NounPhrase | None) -> NounPhrase | None:
+    """A need with no target phrase whose first relation is "on" or "in" something ("I
+    want to lie down on the bed") asks for that something."""
+    if target is None or target.mention is not None or not target.constraints:
+        return target
+    first = target.constraints[0]
+    if first.kind not in ("supported_by", "inside") or len(first.anchors) != 1 or first.negated:
+        return target
+    place = first.anchors[0]
+    return replace(place, constraints=(*place.constraints, *target.constraints[1:]))
 
 
 def _set_question(tokens: tuple[str, ...], target: NounPhrase) -> bool:
@@ -331,7 +371,9 @@ class _Reader:
     def _finish(self) -> NounPhrase | None:
         target = self.target
         if target is None:
-            return None
+            kept = tuple(c for c in self.constraints if c.anchors)
+            # "somewhere to sit near the counter": no target phrase, but a relation
+            return NounPhrase(None, constraints=kept) if kept else None
         constraints = self.constraints
         if self.subject is not None:
             if any(not c.anchors for c in constraints):

@@ -31,7 +31,7 @@ from dataclasses import replace
 from importlib import resources
 from pathlib import Path
 from string import Template
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from causalsplat.openai_compat import (
     ChatClient,
@@ -46,11 +46,17 @@ from causalsplat.openai_compat.client import ChatReply, Message, with_note
 from causalsplat.reason._graph_text import graph_text
 from causalsplat.reason.answer import Answer, make_answer
 from causalsplat.reason.context import SceneContext
+from causalsplat.reason.errors import ReasonError
+from causalsplat.reason.ground import Grounded
+from causalsplat.reason.offline import scored_candidates
 from causalsplat.reason.reasoner import Reasoner
 from graph_store.types import RelationType
 from queries import OP_SPECS, GraphQuery, Op, QueryError, QueryValidationError
 from queries.schema import graph_query_strict_schema, strict_schema
 from queries.semantics import normalise_text, split_attribute
+
+if TYPE_CHECKING:
+    from causalsplat.reason.offline import OfflineReasoner
 
 _GRAPH_KEY = "vlm:graph-text"
 #: Most ids a reply's ``target_ids`` may list (they only cross-check the program).
@@ -134,11 +140,15 @@ class VLMReasoner:
             fallback = OfflineReasoner()
         self.fallback: Reasoner | None = fallback or None
         self.max_entities = max_entities
+        self._offline: OfflineReasoner | None = None
 
     def __repr__(self) -> str:
         return f"VLMReasoner({self.client!r})"
 
     def answer(self, text: str, ctx: SceneContext) -> Answer:
+        from causalsplat.reason.offline import check_instruction
+
+        check_instruction(text)
         try:
             program, notes = self.program(text, ctx)
             result = ctx.run(program)
@@ -165,7 +175,43 @@ class VLMReasoner:
                 f" {list(result.answer)} (the program's answer is kept)"
             )
         explanation = "\n".join([*notes.lines, result.explain()])
-        return make_answer(ctx, text, result, explanation=explanation, reasoner=self.name)
+        grounded = self._ground(text, ctx)
+        candidates = () if grounded is None else scored_candidates(ctx, grounded, result)
+        if isinstance(result.answer, tuple):
+            picked = {ctx.by_id[i].category for i in result.answer}
+            candidates = tuple(replace(c, chosen=c.category in picked) for c in candidates)
+        return make_answer(ctx, text, result, explanation=explanation, reasoner=self.name,
+                           candidates=candidates)  # fmt: skip
+
+    # -- grounding (the offline stages 1-2, shown to the model) ----------------------------
+
+    def _ground(self, text: str, ctx: SceneContext) -> Grounded | None:
+        """The offline grounding of the instruction (the fallback's own reasoner when it is
+        an offline one), or ``None`` when it cannot be read."""
+        from causalsplat.reason.offline import OfflineReasoner
+
+        offline = self.fallback if isinstance(self.fallback, OfflineReasoner) else None
+        if offline is None:
+            offline = self._offline = self._offline or OfflineReasoner()
+        try:
+            return offline.ground(text, ctx)
+        except ReasonError:
+            return None
+
+    def candidates_text(self, text: str, ctx: SceneContext) -> str:
+        """The grounding stage's ranked candidates, one per line, for the prompt: a small
+        model chooses among them rather than reading every entity."""
+        grounded = self._ground(text, ctx)
+        g = None if grounded is None else grounded.target
+        if g is None and grounded is not None and grounded.removed:
+            g = grounded.removed[0]
+        if g is None or not g.candidates:
+            return "(none: the instruction names its target, or any entity)"
+        lines = []
+        for c in g.candidates:
+            ids = [e.id for e in ctx.graph.entities if e.category == c.category][:12]
+            lines.append(f"{c.category} {c.score:.2f} ids {ids} ({c.evidence})")
+        return "\n".join(lines)
 
     # -- one exchange ----------------------------------------------------------------------
 
@@ -177,7 +223,9 @@ class VLMReasoner:
         ops = "\n".join(f"- {spec.signature}" for spec in OP_SPECS.values())
         relations = ", ".join(r.value for r in RelationType)
         system = _template("system.txt").substitute(ops=ops, relations=relations)
-        user = _template("user.txt").substitute(graph=graph, instruction=text)
+        user = _template("user.txt").substitute(
+            graph=graph, instruction=text, candidates=self.candidates_text(text, ctx)
+        )
         return [{"role": "system", "content": system}, {"role": "user", "content": user}]
 
     def program(self, text: str, ctx: SceneContext) -> tuple[GraphQuery, _Notes]:

@@ -93,7 +93,8 @@ def test_evaluate_scores_per_type(room: SceneContext, tmp_path: Path) -> None:
     assert not out["q2"].correct and out["q2"].iou == 0.0
     # predicted {2, 3, 4} vs targets {2, 3}: IoU 2/3, F1 0.8
     assert out["q3"].iou == pytest.approx(2 / 3) and out["q3"].f1 == pytest.approx(0.8)
-    assert out["q4"].error is not None and "names nothing" in out["q4"].error
+    # a sentence naming nothing here is answered with nothing, not an error
+    assert out["q4"].error is None and out["q4"].predicted == () and not out["q4"].correct
     assert report.by_type["spatial"].n == 2 and report.by_type["spatial"].accuracy == 0.5
     document = report.to_dict()
     assert {"n", "accuracy", "miou", "by_type", "per_query"} <= set(document)

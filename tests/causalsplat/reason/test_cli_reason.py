@@ -45,9 +45,12 @@ def test_errors_are_one_line(tiny_store: Store) -> None:
     runner = CliRunner()
     missing = runner.invoke(cli, ["ask", "the cup", "--scene", "nope", "--db", url])
     assert missing.exit_code == 1 and "nope" in missing.output
+    blank = runner.invoke(cli, ["ask", "  ", "--scene", "synth-tiny-0", "--db", url])
+    assert blank.exit_code == 1 and "no words" in blank.output
+    assert len(blank.output.strip().splitlines()) == 1
+    # a well-formed sentence naming nothing here is an answer, not an error
     unknown = runner.invoke(cli, ["ask", "the piano", "--scene", "synth-tiny-0", "--db", url])
-    assert unknown.exit_code == 1 and "names nothing" in unknown.output
-    assert len(unknown.output.strip().splitlines()) == 1
+    assert unknown.exit_code == 0 and "nothing here fits" in unknown.output
 
 
 def test_cold_ask_does_not_import_torch(tiny_store: Store) -> None:
@@ -64,3 +67,18 @@ def test_cold_ask_does_not_import_torch(tiny_store: Store) -> None:
     document, _, marker = proc.stdout.strip().rpartition("\n")
     assert marker == "LIGHT"
     assert json.loads(document)["answer"] == [9]
+
+
+def test_ask_shows_the_ranked_candidates(tiny_store: Store) -> None:
+    url = tiny_store.graph_store.url
+    runner = CliRunner()
+    args = ["ask", "I need to dry my hands", "--scene", "synth-tiny-0", "--db", url]
+    doc = json.loads(runner.invoke(cli, [*args, "--json"]).output)
+    assert doc["query_type"] == "commonsense" and doc["answer"]
+    ranked = doc["candidates"]
+    assert ranked and ranked[0]["category"] == "towel" and ranked[0]["chosen"] is True
+    assert [c["score"] for c in ranked] == sorted((c["score"] for c in ranked), reverse=True)
+    assert set(ranked[0]) == {"category", "score", "entities", "chosen", "evidence"}
+    text = runner.invoke(cli, [*args, "--no-embeddings"])
+    assert text.exit_code == 0 and "candidates (best first):" in text.output
+    assert " *1. towel" in text.output

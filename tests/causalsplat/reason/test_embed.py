@@ -38,8 +38,10 @@ def test_embeddings_rank_and_feed_affordance_matching(room: SceneContext) -> Non
     sims = embedder.similarities("somewhere to sit down", ["sit", "cook in", "read"])
     assert sims[0] == max(sims)
     answer = OfflineReasoner(embeddings=True).answer("where can I sit down?", room)
-    assert answer.entity_ids == (5, 6, 7)
+    # the couch scores within WIDEN of the chairs and affords sitting too: both are seats
+    assert answer.entity_ids == (5, 6, 7, 10)
     assert [c.category for c in answer.candidates[:2]] == ["chair", "couch"]
+    assert answer.candidates[0].chosen and answer.candidates[1].chosen
     assert "(embedding;" in answer.explanation
 
 
@@ -55,3 +57,14 @@ def test_numpy_forward_pass_matches_sentence_transformers() -> None:
     reference = load_model(device="cpu").encode(texts, normalize_embeddings=True)
     ours = embed_module.load_embedder().encode(texts)
     assert np.abs(ours - reference).max() < 1e-5
+
+
+def test_erf_matches_a_float64_reference() -> None:
+    import math
+
+    x = np.concatenate([np.linspace(-10, 10, 20001), [0.0, -0.0, 1e-30, -1e-30, 50.0, -50.0]])
+    reference = np.array([math.erf(v) for v in x])
+    ours = embed_module._erf(x)
+    assert np.all(np.isfinite(ours)) and np.abs(ours - reference).max() < 2e-7
+    assert embed_module._erf(np.array([np.inf, -np.inf])).tolist() == [1.0, -1.0]
+

@@ -43,7 +43,7 @@ def _scene(*objects: tuple[int, str, tuple[float, float, float]], **attrs: objec
                 "center": list(c),
                 "size": [0.6, 0.6, 0.6],
                 **({"attributes": attrs[label]} if label in attrs else {}),
-            }  # fmt: skip
+            }
             for i, label, c in objects
         ],
     }
@@ -143,7 +143,7 @@ def test_stored_affordances_select_entities_across_categories() -> None:
 def test_the_builder_takes_the_language_enums_only() -> None:
     b = ProgramBuilder(FLAT)
     assert b.add(Op.FILTER_CATEGORY, 0, value="bed") == 1
-    with pytest.raises(TypeError, match="queries.Op"):
+    with pytest.raises(TypeError, match=r"queries\.Op"):
         b.add("filter_category", 0, value="bed")  # type: ignore[arg-type]
     with pytest.raises(TypeError, match="Metric"):
         b.add(Op.ARGMIN, 1, metric="distance")  # type: ignore[arg-type]

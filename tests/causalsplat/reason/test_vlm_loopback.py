@@ -88,6 +88,21 @@ def test_valid_program(room: SceneContext) -> None:
     assert reply_schema()["properties"]["target_ids"]["maxItems"] == MAX_TARGET_IDS
     user = body["messages"][1]["content"]
     assert "6 chair |" in user and "Instruction: the chair closest to the lamp" in user
+    # the target is named outright: no scored candidates to choose among
+    assert "Candidates for what the instruction asks for" in user
+
+
+def test_the_prompt_carries_the_grounding_candidates(room: SceneContext) -> None:
+    with ScriptedServer() as server:
+        server.script.append(Reply(VALID))
+        answer = reasoner(server).answer("where can I sit down?", room)
+    user = server.requests[0]["body"]["messages"][1]["content"]
+    block = user.split("best first:\n", 1)[1].split("\n\nInstruction:", 1)[0]
+    first = block.splitlines()[0]
+    assert first.startswith("chair ") and "ids [5, 6, 7]" in first and "chair: " in first
+    assert answer.candidates and answer.candidates[0].category == "chair"
+    # the VLM's program selected entity 6 (a chair): the chair candidate is marked chosen
+    assert answer.entity_ids == (6,) and answer.candidates[0].chosen
 
 
 @pytest.mark.parametrize(
