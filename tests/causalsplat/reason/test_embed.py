@@ -67,4 +67,3 @@ def test_erf_matches_a_float64_reference() -> None:
     ours = embed_module._erf(x)
     assert np.all(np.isfinite(ours)) and np.abs(ours - reference).max() < 2e-7
     assert embed_module._erf(np.array([np.inf, -np.inf])).tolist() == [1.0, -1.0]
-
