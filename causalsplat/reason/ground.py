@@ -27,8 +27,8 @@ How the two signals combine, by what the instruction's target is:
   the direct object of its verb: that is what the need acts on, not what it asks for
   ("hang my towels" asks for a rack, "decorate the walls" for a picture; "sit on the
   couch", after a preposition, keeps the couch). The floor, walls and ceiling bound the
-  room and answer a need only when named; the anchors of the need's relations ("near the
-  table") are where to look, not what is asked for, and are left out. A category the need
+  room and answer a need only when named; the need's relations ("near the table") are
+  applied by the plan and their words are left out of what is scored. A category the need
   acts on is scored without the words that name it. The best category is taken, with
   every category tied with it (two labels of one kind of object share their facts) and
   every category within :data:`WIDEN` of it that affords, by the lexicon's WordNet
@@ -52,7 +52,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from causalsplat.reason._grammar import DETERMINERS
+from causalsplat.reason._grammar import ACTION_STOPWORDS, DETERMINERS, PARTICLES, STATES
 from causalsplat.reason._mentions import CategoryIndex, mention_at
 from causalsplat.reason.affordance import match_affordances
 from causalsplat.reason.context import SceneContext
@@ -239,8 +239,14 @@ class Grounder:
         :func:`~causalsplat.reason.affordance.match_affordances`: WordNet overlap with the
         need's words, averaged with embedding similarity when available): the scene's own
         statement outranks general knowledge of categories."""
-        constraints = () if ins.target is None else ins.target.constraints
-        anchors = frozenset(c for con in constraints for a in con.anchors for c in a.categories)
+        # the relations the plan will apply (their anchors named outright) are left out of
+        # the scored words: an anchor's name would pull the meaning towards the anchor
+        # ("have dinner" is no relation to a dinner and stays)
+        constraints = [
+            con
+            for con in (() if ins.target is None else ins.target.constraints)
+            if con.anchors and all(_is_named(a) for a in con.anchors)
+        ]
         query = _without_relations(ins, constraints)
         acted = self.acted_on(ins)
         # a category is scored without the words that name it as what the need acts on:
@@ -251,12 +257,12 @@ class Grounder:
             masked = " ".join(t for t in words if t not in (",", "."))
             own[c] = self.meaning_of(masked, c)
         named = {c: v[2] for c, v in acted.items()}
-        ranked = self._rank("intent", query, named, need=True, exclude=anchors, own=own)
+        ranked = self._rank("intent", query, named, need=True, own=own)
         stored = self.ctx.attribute_values(self.ctx.config.affordance_key)
         if not stored:
             return self._widen(ins, ranked)
         match = match_affordances(
-            ins.action, stored, self.lexicon, embedder=getattr(self.scorer, "embedder", None)
+            need_words(ins), stored, self.lexicon, embedder=getattr(self.scorer, "embedder", None)
         )
         if not match.phrases:
             return ranked
@@ -275,7 +281,7 @@ class Grounder:
         if not offered:
             return ranked
         match = match_affordances(
-            ins.action, offered, lex, embedder=getattr(self.scorer, "embedder", None)
+            need_words(ins), offered, lex, embedder=getattr(self.scorer, "embedder", None)
         )
         if not match.phrases:
             return ranked
@@ -301,16 +307,18 @@ class Grounder:
     def acted_on(self, ins: Instruction) -> dict[str, tuple[int, int, float]]:
         """What the need acts on: categories named outright (lexicon score >= NAMED) inside
         its purpose clause as the direct object of its verb, not after a preposition
-        ("hang my towels": the towel; "sit on the couch": not the couch), with the
-        tokens that name them and their lexicon score."""
+        ("hang my towels": the towel; "sit on the couch": not the couch) nor in one of
+        its relations ("near the blue stool"), with the tokens that name them and their
+        lexicon score."""
         tokens = ins.main_tokens
         start = ins.purpose_start or 0
+        relations = [c.span for c in (() if ins.target is None else ins.target.constraints)]
         out: dict[str, tuple[int, int, float]] = {}
         i = start
         while i < len(tokens):
             m = mention_at(self.index, tokens, i)
-            if m is None or m.generic:
-                i += 1
+            if m is None or m.generic or any(a <= i < b for a, b in relations):
+                i += 1 if m is None or m.generic else m.end - i
                 continue
             j = i - 1
             while j >= start and (tokens[j] in DETERMINERS or tokens[j] in _POSSESSIVES):
@@ -382,6 +390,23 @@ class Grounder:
             top = cands[0].score
             chosen = tuple(sorted(c.category for c in cands if c.score >= top - TIE))
         return Grounding(how, query, tuple(cands[:TOP_K]), chosen, self.scorer.method)
+
+
+def _is_named(np: NounPhrase) -> bool:
+    return np.mention is not None and bool(np.categories) and np.mention.score >= NAMED
+
+
+def need_words(ins: Instruction) -> tuple[str, ...]:
+    """The words of a need's purpose clause ("what can I | cook soup in?" -> cook, soup,
+    in), less stop words; a trailing particle is kept (it tells "cook in" from "cook").
+    Without a purpose clause, the action words stage 1 found."""
+    if ins.purpose_start is None or not ins.main_tokens:
+        return ins.action
+    tail = [t for t in ins.main_tokens[ins.purpose_start :] if t.isalpha()]
+    words = [w for t in tail if t not in ACTION_STOPWORDS for w in STATES.get(t, t).split()]
+    if tail and tail[-1] in PARTICLES and (not words or words[-1] != tail[-1]):
+        words.append(tail[-1])
+    return tuple(words) or ins.action
 
 
 def _without_relations(ins: Instruction, constraints: Iterable[Constraint]) -> str:

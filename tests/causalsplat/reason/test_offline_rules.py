@@ -137,9 +137,10 @@ def test_needs_are_grounded_by_what_objects_are_for(room: SceneContext) -> None:
     near = REASONER.answer("something to sit on near the table", room)
     # chair and couch tie on "sit" in WordNet overlap; the relation keeps the seats near
     # the table (the couch's centroid is within 1.5x the footprint radii of the table);
-    # the table, its anchor, is not a candidate
+    # the relation is applied by the plan; its words are not scored as the need
     assert near.query_type == "affordance" and near.entity_ids == (5, 6, 10)
-    assert "table" not in [c.category for c in near.candidates]
+    grounded = REASONER.ground("something to sit on near the table", room)
+    assert grounded.target is not None and grounded.target.query == "something to sit on"
 
 
 def test_a_definite_need_with_a_relation_takes_one(room: SceneContext) -> None:
