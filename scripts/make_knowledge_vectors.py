@@ -2,9 +2,9 @@
 
 Writes ``causalsplat/reason/data/knowledge_vectors.npz``: every text that
 :func:`causalsplat.reason.ground.describe` gives for each entry of the shipped knowledge
-table (under its name and each of its other names), embedded with the packaged
-all-MiniLM-L6-v2 model exactly as the reasoner embeds text at run time, stored as float16
-unit vectors with the texts, the model name and the SHA-256 of the texts. A cold ``ask``
+table, embedded with the packaged all-MiniLM-L6-v2 model exactly as the reasoner embeds
+text at run time, stored as int8 codes with a float16 scale per row (unit vectors once
+decoded), with the texts, the model name and the SHA-256 of the texts. A cold ``ask``
 then embeds only the instruction. Needs the ``embed`` extra.
 
 Usage::
@@ -35,7 +35,9 @@ OUT = (
 
 
 def knowledge_texts() -> list[str]:
-    """The texts to embed, in a fixed order (entries sorted, names in table order)."""
+    """The texts to embed, in a fixed order (entries sorted). A scene label that is only
+    an entry's other name shares the entry's facts; its name and its WordNet definition are
+    embedded at run time (two short texts)."""
     from causalsplat.reason.ground import describe
     from causalsplat.reason.knowledge import load_knowledge
     from causalsplat.reason.lexicon import load_lexicon
@@ -45,8 +47,7 @@ def knowledge_texts() -> list[str]:
     for name in knowledge.names:
         facts = knowledge.get(name)
         assert facts is not None
-        for label in (facts.name, *facts.also):
-            texts.update(dict.fromkeys(describe(label, lexicon, knowledge)))
+        texts.update(dict.fromkeys(describe(facts.name, lexicon, knowledge)))
     return list(texts)
 
 
@@ -57,13 +58,17 @@ def build() -> bytes:
     texts = knowledge_texts()
     embedder = MiniLMEmbedder()
     start = time.perf_counter()
-    vectors = embedder.encode(texts).astype(np.float16)
+    vectors = embedder.encode(texts)
+    # int8 per row (a float16 scale each): the file stays small; cosines move by < 1e-3
+    scale = np.abs(vectors).max(axis=1, keepdims=True) / 127.0
+    codes = np.round(vectors / np.maximum(scale, 1e-12)).astype(np.int8)
     print(f"embedded {len(texts)} texts in {time.perf_counter() - start:.1f} s", file=sys.stderr)
     buffer = io.BytesIO()
     np.savez_compressed(
         buffer,
         texts=np.asarray(texts),
-        vectors=vectors,
+        codes=codes,
+        scale=scale.astype(np.float16),
         model=np.asarray(VECTORS_MODEL),
         digest=np.asarray(texts_digest(texts)),
     )

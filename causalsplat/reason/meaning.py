@@ -6,9 +6,10 @@ gives one number per text, higher for closer meaning.
 * :class:`EmbeddingMeaning` (the ``embed`` extra): cosine similarity of MiniLM sentence
   embeddings. The descriptions of the shipped knowledge table are embedded ahead of time
   (``data/knowledge_vectors.npz``, made by ``scripts/make_knowledge_vectors.py`` with the
-  same model, stored as float16), so a cold ``ask`` embeds only the instruction and the
-  few descriptions the table does not hold (WordNet glosses of categories it does not
-  know, stored attributes).
+  same model, stored as int8 codes with a scale per row), so a cold ``ask`` embeds only
+  the instruction and the few descriptions the table does not hold (the name and WordNet
+  definition of a label the table knows only as another name or not at all, stored
+  attributes).
 * :class:`LexicalMeaning` (always available): a Dice coefficient over content words,
   where two words count with the strength of their WordNet relation (same word 1.0,
   synonym 0.8, derivation 0.7, hypernym 0.5; see
@@ -110,6 +111,6 @@ def shipped_vectors() -> tuple[tuple[str, ...], np.ndarray] | None:
         if str(data["model"]) != VECTORS_MODEL:
             return None
         texts = tuple(str(t) for t in data["texts"])
-        vectors = data["vectors"].astype(np.float32)
+        vectors = data["codes"].astype(np.float32) * data["scale"].astype(np.float32)
     norms = np.linalg.norm(vectors, axis=1, keepdims=True)
     return texts, vectors / np.maximum(norms, 1e-12)
