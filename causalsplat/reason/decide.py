@@ -33,8 +33,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from causalsplat.reason._builder import SCENE, ProgramBuilder
-from causalsplat.reason.ground import NAMED, Grounded, Grounding
-from causalsplat.reason.parse import Instruction, NounPhrase
+from causalsplat.reason.ground import Grounded, Grounding, is_named
+from causalsplat.reason.parse import Instruction
 from causalsplat.reason.topology import Planned, Planner
 from queries import GraphQuery, Metric, Op
 
@@ -107,7 +107,7 @@ def _need(b: ProgramBuilder, planner: Planner, grounded: Grounded) -> tuple[int,
     if target is not None:
         wider = [c.category for c in g.candidates[:3] if c.score >= g.candidates[0].score * 0.5]
         for constraint in target.constraints:
-            if not all(_named(a) for a in constraint.anchors):
+            if not all(is_named(a) for a in constraint.anchors):
                 b.note(f"relation {constraint.kind!r} not used: its anchor is not named")
                 continue
             out = planner.relation(step, constraint, singular=False, selectors=False)
@@ -129,10 +129,6 @@ def _need(b: ProgramBuilder, planner: Planner, grounded: Grounded) -> tuple[int,
                 continue
             step, related = _closest_if_singular(b, grounded.instruction, out), True
     return step, ("affordance" if related else "commonsense")
-
-
-def _named(np: NounPhrase) -> bool:
-    return np.mention is not None and bool(np.categories) and np.mention.score >= NAMED
 
 
 def _definite(ins: Instruction) -> bool:

@@ -245,7 +245,7 @@ class Grounder:
         constraints = [
             con
             for con in (() if ins.target is None else ins.target.constraints)
-            if con.anchors and all(_is_named(a) for a in con.anchors)
+            if con.anchors and all(is_named(a) for a in con.anchors)
         ]
         query = _without_relations(ins, constraints)
         acted = self.acted_on(ins)
@@ -367,7 +367,6 @@ class Grounder:
         acted_on: dict[str, float],
         *,
         need: bool = False,
-        exclude: frozenset[str] = frozenset(),
         fits: float = FITS,
         own: dict[str, float] | None = None,
     ) -> Grounding:
@@ -375,7 +374,7 @@ class Grounder:
         meaning, which = self.meaning(query)
         cands = []
         for k, c in enumerate(categories):
-            if c.lower() in UNSPECIFIC or c in exclude:
+            if c.lower() in UNSPECIFIC:
                 continue
             if need and self.ctx.config.is_structural(c):
                 continue
@@ -392,7 +391,8 @@ class Grounder:
         return Grounding(how, query, tuple(cands[:TOP_K]), chosen, self.scorer.method)
 
 
-def _is_named(np: NounPhrase) -> bool:
+def is_named(np: NounPhrase) -> bool:
+    """The phrase names scene categories outright (lexicon score >= NAMED)."""
     return np.mention is not None and bool(np.categories) and np.mention.score >= NAMED
 
 
