@@ -10,6 +10,11 @@ gives one number per text, higher for closer meaning.
   the instruction and the few descriptions the table does not hold (the name and WordNet
   definition of a label the table knows only as another name or not at all, stored
   attributes).
+  The instruction's vector is first moved by the *need adapter*
+  (:class:`QueryAdapter`, ``data/need_adapter.npz``), a low-rank linear correction learned
+  on the train split of the DDN demand instructions by ``scripts/train_need_adapter.py``:
+  a general sentence model puts a need near the objects it mentions more than near the
+  objects that meet it. ``EmbeddingMeaning(embedder, adapter=None)`` scores without it.
 * :class:`LexicalMeaning` (always available): a Dice coefficient over content words,
   where two words count with the strength of their WordNet relation (same word 1.0,
   synonym 0.8, derivation 0.7, hypernym 0.5; see
@@ -65,13 +70,52 @@ class LexicalMeaning:
         )
 
 
+class QueryAdapter:
+    """``q -> normalise(q + U (V^T q))``: the need adapter (module docstring).
+
+    >>> import numpy as np
+    >>> u = np.zeros((384, 2), np.float32); v = np.zeros((384, 2), np.float32)
+    >>> q = np.eye(384, dtype=np.float32)[:1]
+    >>> bool(np.allclose(QueryAdapter(u, v)(q), q))
+    True
+    """
+
+    def __init__(self, u: np.ndarray, v: np.ndarray, *, digest: str = "") -> None:
+        if u.shape != v.shape or u.ndim != 2:
+            raise ValueError(
+                f"U and V must have one shape (dim, rank), got {u.shape} and {v.shape}"
+            )
+        self.u = np.asarray(u, dtype=np.float64)
+        self.v = np.asarray(v, dtype=np.float64)
+        self.digest = digest
+
+    @property
+    def rank(self) -> int:
+        return int(self.u.shape[1])
+
+    def __call__(self, q: np.ndarray) -> np.ndarray:
+        """``(n, dim)`` unit rows (or one ``(dim,)`` vector) moved and normalised again."""
+        x = np.asarray(q, dtype=np.float64)
+        out = x + (x @ self.v) @ self.u.T
+        return out / np.maximum(np.linalg.norm(out, axis=-1, keepdims=True), 1e-12)
+
+
 class EmbeddingMeaning:
-    """Cosine similarity of sentence embeddings (module docstring)."""
+    """Cosine similarity of sentence embeddings (module docstring).
+
+    ``adapter``: ``"shipped"`` (default) moves the instruction's vector by the shipped need
+    adapter when the package holds one; ``None`` scores with the model's vectors alone.
+    """
 
     method = "embedding"
 
-    def __init__(self, embedder: Any) -> None:
+    def __init__(self, embedder: Any, adapter: QueryAdapter | str | None = "shipped") -> None:
         self.embedder = embedder
+        if adapter == "shipped":
+            adapter = shipped_adapter()
+        elif isinstance(adapter, str):
+            raise ValueError(f"adapter must be 'shipped', None or a QueryAdapter, got {adapter!r}")
+        self.adapter: QueryAdapter | None = adapter
         shipped = shipped_vectors()
         self._shipped: dict[str, np.ndarray] = {}
         if shipped is not None:
@@ -89,11 +133,38 @@ class EmbeddingMeaning:
         if not texts:
             return np.zeros(0, dtype=np.float64)
         q = np.asarray(self.embedder.encode([query])[0], dtype=np.float64)
+        if self.adapter is not None:
+            q = self.adapter(q)
         return self.vectors(texts) @ q
 
 
 def vectors_path() -> Any:
     return resources.files("causalsplat.reason").joinpath("data", "knowledge_vectors.npz")
+
+
+def adapter_path() -> Any:
+    return resources.files("causalsplat.reason").joinpath("data", "need_adapter.npz")
+
+
+@lru_cache(maxsize=1)
+def shipped_adapter() -> QueryAdapter | None:
+    """The shipped need adapter, or ``None`` when absent or made for another model."""
+    path = adapter_path()
+    if not path.is_file():
+        return None
+    with path.open("rb") as handle, np.load(handle, allow_pickle=False) as data:
+        if str(data["model"]) != VECTORS_MODEL:
+            return None
+        return QueryAdapter(data["u"], data["v"], digest=str(data["digest"]))
+
+
+def shipped_digest() -> str:
+    """The digest of the shipped knowledge vectors' texts (``""`` when absent)."""
+    path = vectors_path()
+    if not path.is_file():
+        return ""
+    with path.open("rb") as handle, np.load(handle, allow_pickle=False) as data:
+        return str(data["digest"])
 
 
 def texts_digest(texts: Sequence[str]) -> str:

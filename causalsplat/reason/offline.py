@@ -65,6 +65,9 @@ class OfflineReasoner:
             extra is missing); ``False``: WordNet word overlap only.
         lexicon: a lexicon to use instead of the shipped one.
         knowledge: a knowledge table to use instead of the shipped one.
+        adapter: move an instruction's embedding by the shipped need adapter, learned on
+            the DDN train split (:mod:`causalsplat.reason.meaning`); ``False`` scores with
+            the sentence model alone. No effect without embeddings.
     """
 
     name = "offline"
@@ -75,8 +78,10 @@ class OfflineReasoner:
         embeddings: EmbeddingChoice = "auto",
         lexicon: Lexicon | None = None,
         knowledge: Knowledge | None = None,
+        adapter: bool = True,
     ):
         self._lexicon = lexicon
+        self.adapter = adapter
         self._knowledge = knowledge
         self.uses_embeddings = embeddings is True or (
             embeddings == "auto" and embeddings_available()
@@ -87,6 +92,8 @@ class OfflineReasoner:
         self._scorer: MeaningScorer | None = None
 
     def __repr__(self) -> str:
+        if self.uses_embeddings and not self.adapter:
+            return f"OfflineReasoner(embeddings={self.uses_embeddings}, adapter=False)"
         return f"OfflineReasoner(embeddings={self.uses_embeddings})"
 
     @property
@@ -113,7 +120,7 @@ class OfflineReasoner:
         if self._scorer is None:
             embedder = self.embedder
             if embedder is not None:
-                self._scorer = EmbeddingMeaning(embedder)
+                self._scorer = EmbeddingMeaning(embedder, "shipped" if self.adapter else None)
             else:
                 self._scorer = LexicalMeaning(self.lexicon)
         return self._scorer
@@ -131,7 +138,10 @@ class OfflineReasoner:
 
     def grounder(self, ctx: SceneContext) -> Grounder:
         """The scene's grounding stage (built once per scene context and scorer)."""
-        key = f"{_GROUNDER_KEY}:{'embedding' if self.uses_embeddings else 'lexical'}"
+        mode = "lexical"
+        if self.uses_embeddings:
+            mode = "embedding+adapter" if self.adapter else "embedding"
+        key = f"{_GROUNDER_KEY}:{mode}"
         grounder = ctx.cache.get(key)
         if grounder is None or grounder.lexicon is not self.lexicon:
             grounder = Grounder(

@@ -23,6 +23,9 @@ from causalsplat.reason.meaning import (
     VECTORS_MODEL,
     EmbeddingMeaning,
     LexicalMeaning,
+    QueryAdapter,
+    shipped_adapter,
+    shipped_digest,
     shipped_vectors,
     texts_digest,
 )
@@ -198,3 +201,40 @@ def test_needs_with_embeddings() -> None:
         answer = reasoner.answer(text, FLAT)
         assert set(answer.categories) == {expected}, (text, answer.explanation)
         assert "(embedding;" in answer.explanation
+
+
+def test_shipped_adapter_was_trained_on_the_shipped_vectors() -> None:
+    adapter = shipped_adapter()
+    assert adapter is not None, "run scripts/train_need_adapter.py (needs ../shared/data)"
+    assert adapter.digest == shipped_digest(), (
+        "the knowledge vectors changed since the need adapter was trained: "
+        "run scripts/train_need_adapter.py (needs ../shared/data)"
+    )
+    assert adapter.u.shape == adapter.v.shape == (384, adapter.rank)
+    assert np.isfinite(adapter.u).all() and np.isfinite(adapter.v).all()
+
+
+def test_query_adapter_moves_the_query_only() -> None:
+    rng = np.random.default_rng(0)
+    u, v = rng.normal(size=(384, 4)), rng.normal(size=(384, 4))
+    q = rng.normal(size=384)
+    q /= np.linalg.norm(q)
+    moved = QueryAdapter(u, v)(q)
+    expected = q + u @ (v.T @ q)  # float64 reference
+    assert np.allclose(moved, expected / np.linalg.norm(expected), atol=1e-12)
+    assert np.allclose(QueryAdapter(0 * u, v)(q), q)
+    with pytest.raises(ValueError, match="one shape"):
+        QueryAdapter(u, v[:, :2])
+
+    class Fixed:
+        """An embedder whose vectors are fixed: the query is ``q``, a text its own row."""
+
+        def encode(self, texts: list[str]) -> np.ndarray:
+            return np.stack([q if t == "query" else texts_rows[t] for t in texts])
+
+    texts_rows = {"a": q, "b": moved}
+    plain = EmbeddingMeaning(Fixed(), adapter=None).scores("query", ["a", "b"])
+    adapted = EmbeddingMeaning(Fixed(), adapter=QueryAdapter(u, v)).scores("query", ["a", "b"])
+    assert plain[0] == pytest.approx(1.0) and adapted[1] == pytest.approx(1.0)
+    with pytest.raises(ValueError, match="adapter must be"):
+        EmbeddingMeaning(Fixed(), adapter="learned")
