@@ -18,6 +18,10 @@
 #   DB, SCENE     the store and scene of QUERIES.json (default: the prepared ScanNet scene)
 #   SCANNET_SRC   default ../shared/data/scannet_scene0000_00
 #   KEEP          a folder to keep the work files in (scene, store, server log, exchanges)
+#   DDN_LIMIT     also ask the first N placed DDN validation instructions (ScanNet object
+#                 tables, the benchmark's protocol) next to the offline reasoner and the
+#                 naive baseline; 0 skips them (default: all, when ../shared/data has them)
+#   DDN_REPORT    where that report goes (default: vlm-check-ddn.json)
 set -euo pipefail
 
 cd "$(dirname "$0")/.."
@@ -26,6 +30,8 @@ MAX_TOKENS=${MAX_TOKENS:-1024}
 LIMIT=${LIMIT:-0}
 CTX=${CTX:-8192}
 TIMEOUT=${TIMEOUT:-600}
+DDN_LIMIT=${DDN_LIMIT:-all}
+DDN_REPORT=${DDN_REPORT:-vlm-check-ddn.json}
 SCANNET_SRC=${SCANNET_SRC:-../shared/data/scannet_scene0000_00}
 QUERIES=${1:-}
 REPORT=${2:-vlm-check-report.json}
@@ -36,6 +42,7 @@ die() { say "error: $*"; exit 1; }
 [ -x "$PY" ] || die "no python at $PY (run 'make venv' first, or set PY)"
 [[ "$MAX_TOKENS" =~ ^[1-9][0-9]*$ ]] || die "MAX_TOKENS must be a positive integer"
 [[ "$LIMIT" =~ ^[0-9]+$ ]] || die "LIMIT must be a number of queries"
+[[ "$DDN_LIMIT" =~ ^([0-9]+|all)$ ]] || die "DDN_LIMIT must be a number of instructions or all"
 if [ -n "${KEEP:-}" ]; then
     mkdir -p "$KEEP" && WORK=$(cd "$KEEP" && pwd)
 else
@@ -169,3 +176,26 @@ bad = {"VLMTruncatedError", "VLMTransportError", "VLMTimeoutError"} & set(why)
 if bad:
     sys.exit(f"vlm-check: failed: queries fell back with {sorted(bad)}")
 EOF
+
+# -- 5. DDN demand instructions in ScanNet object tables (validation split) -----------------
+if [ "$DDN_LIMIT" != 0 ]; then
+    if "$PY" -c "import sys; from causalsplat.bench import _reasoning_ddn as d; sys.exit(not d.available())"
+    then
+        N=$([ "$DDN_LIMIT" = all ] && echo 0 || echo "$DDN_LIMIT")
+        say "asking the DDN validation instructions with --reasoner vlm (report: $DDN_REPORT)"
+        "$PY" -m causalsplat.bench._reasoning_ddn val "$N" --vlm "http://127.0.0.1:$PORT/v1" \
+            --model SmolLM2-135M-Instruct --max-tokens "$MAX_TOKENS" --timeout "$TIMEOUT" \
+            --record "$WORK/exchanges-ddn.jsonl" --json "$DDN_REPORT" >&2
+        "$PY" - "$DDN_REPORT" <<'EOF'
+import json
+import sys
+
+vlm = json.load(open(sys.argv[1], encoding="utf-8"))["vlm"]
+bad = {"VLMTruncatedError", "VLMTransportError", "VLMTimeoutError"} & set(vlm["fallback_reasons"])
+if bad:
+    sys.exit(f"vlm-check: failed: DDN instructions fell back with {sorted(bad)}")
+EOF
+    else
+        say "no DDN data under ../shared/data: skipping the DDN instructions"
+    fi
+fi

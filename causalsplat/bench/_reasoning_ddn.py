@@ -19,7 +19,9 @@ The naive baseline, run on the same placements: every object of the scene label 
 name is nearest to the instruction by MiniLM cosine.
 
 Run ``python -m causalsplat.bench._reasoning_ddn train`` while developing (train split
-only; the validation split is for the report).
+only; the validation split is for the report). ``--vlm URL --model NAME`` asks an
+OpenAI-compatible server instead (``make vlm-check`` does, on the validation split), with
+``--json FILE`` for the report.
 """
 
 from __future__ import annotations
@@ -65,6 +67,7 @@ class Outcome:
     top3: bool
     error: str | None
     seconds: float
+    fallback: str | None = None
 
     @property
     def empty(self) -> bool:
@@ -121,16 +124,18 @@ def evaluate(
         error = None
         labels: tuple[str, ...] = ()
         ranked: tuple[str, ...] = ()
+        fallback = None
         try:
             answer = reasoner.answer(row.text, ctx)
             labels = answer.categories
             ranked = tuple(dict.fromkeys(c.category for c in getattr(answer, "candidates", ())))
+            fallback = answer.fallback
         except (ReasonError, QueryError) as exc:
             error = str(exc)
         seconds = time.perf_counter() - start
         right = bool(labels) and all(label in row.acceptable for label in labels)
         top3 = right or any(c in row.acceptable for c in ranked[:3])
-        out.append(Outcome(row, labels, ranked, right, top3, error, seconds))
+        out.append(Outcome(row, labels, ranked, right, top3, error, seconds, fallback))
     return out
 
 
@@ -167,38 +172,58 @@ def summary(outcomes: Sequence[Outcome]) -> dict[str, Any]:
         "top3": sum(o.top3 for o in outcomes) / n,
         "empty": sum(o.empty for o in outcomes) / n,
         "errors": sum(o.error is not None for o in outcomes) / n,
+        "fallbacks": sum(o.fallback is not None for o in outcomes) / n,
         "ms": 1000 * sum(o.seconds for o in outcomes) / n,
     }
 
 
 def main(argv: Sequence[str]) -> int:  # pragma: no cover - a development tool
+    import argparse
     import tempfile
 
     from causalsplat.reason.offline import OfflineReasoner
 
-    split = argv[0] if argv else "train"
-    if split not in SPLITS:
-        print(f"split must be one of {', '.join(SPLITS)}", file=sys.stderr)
-        return 2
-    numbers = [a for a in argv[1:] if a.isdigit()]
-    limit = int(numbers[0]) if numbers else None
-    rows, total = placements(split)
-    rows = rows[:limit] if limit else rows
-    verbose = "-v" in argv
+    parser = argparse.ArgumentParser(prog="python -m causalsplat.bench._reasoning_ddn")
+    parser.add_argument("split", nargs="?", default="train", choices=sorted(SPLITS))
+    parser.add_argument("limit", nargs="?", type=int, default=0, help="first N placements")
+    parser.add_argument("-v", "--verbose", action="store_true", help="print every miss")
+    parser.add_argument("--vlm", metavar="URL", help="an OpenAI-compatible server's /v1 root")
+    parser.add_argument("--model", help="the server's model name (with --vlm)")
+    parser.add_argument("--max-tokens", type=int, default=None, help="a reply's token budget")
+    parser.add_argument("--timeout", type=float, default=600.0, help="seconds per reply")
+    parser.add_argument("--record", metavar="FILE", help="keep the exchanges (JSONL)")
+    parser.add_argument("--json", metavar="FILE", help="write the report here")
+    args = parser.parse_args(argv)
+    rows, total = placements(args.split)
+    rows = rows[: args.limit] if args.limit else rows
+    reasoners: list[tuple[str, Reasoner]] = [("offline", OfflineReasoner())]
+    if args.vlm:
+        from causalsplat.openai_compat import VLMConfig
+        from causalsplat.reason.vlm import VLMReasoner
+
+        config = VLMConfig.from_env(base_url=args.vlm, model=args.model, timeout_s=args.timeout,
+                                    max_tokens=args.max_tokens)  # fmt: skip
+        reasoners.append(("vlm", VLMReasoner(config=config, record=args.record)))
+    report: dict[str, Any] = {"split": args.split, "placed": len(rows), "total": total}
     with tempfile.TemporaryDirectory() as tmp:
         graphs = ref.ScanGraphs(f"sqlite:///{Path(tmp) / 'ddn.db'}")
-        print(f"{split}: {len(rows)} placed of {total}")
-        base = baseline(rows, graphs)
-        print("baseline", summary(base))
-        for name, reasoner in (("offline+embeddings", OfflineReasoner(embeddings=True)),):
+        print(f"{args.split}: {len(rows)} placed of {total}")
+        report["baseline"] = summary(baseline(rows, graphs))
+        print("baseline", report["baseline"])
+        for name, reasoner in reasoners:
             outs = evaluate(rows, reasoner, graphs)
-            print(name, summary(outs))
-            if verbose:
-                for o in outs:
-                    if not o.right:
-                        print(f"  x {o.placement.text!r} -> {o.labels[:3]} {o.ranked[:4]} "
-                              f"want {sorted(o.placement.acceptable)} {o.error or ''}")  # fmt: skip
+            report[name] = summary(outs)
+            report[name]["fallback_reasons"] = sorted(
+                {(o.fallback or "").split(":", 1)[0] for o in outs if o.fallback}
+            )
+            print(name, report[name])
+            for o in outs if args.verbose else ():
+                if not o.right:
+                    print(f"  x {o.placement.text!r} -> {o.labels[:3]} {o.ranked[:4]} "
+                          f"want {sorted(o.placement.acceptable)} {o.error or ''}")  # fmt: skip
         graphs.close()
+    if args.json:
+        Path(args.json).write_text(json.dumps(report, indent=2) + "\n", encoding="utf-8")
     return 0
 
 
