@@ -52,7 +52,7 @@ from causalsplat.reason.offline import scored_candidates
 from causalsplat.reason.reasoner import Reasoner
 from graph_store.types import RelationType
 from queries import OP_SPECS, GraphQuery, Op, QueryError, QueryValidationError
-from queries.schema import graph_query_strict_schema, strict_schema
+from queries.schema import graph_query_schema, strict_schema
 from queries.semantics import normalise_text, split_attribute
 
 if TYPE_CHECKING:
@@ -60,9 +60,16 @@ if TYPE_CHECKING:
 
 _GRAPH_KEY = "vlm:graph-text"
 #: Most ids a reply's ``target_ids`` may list (they only cross-check the program).
-MAX_TARGET_IDS = 32
+MAX_TARGET_IDS = 16
 #: Longest explanation kept, in characters (the schema's bound; a longer one is cut).
-MAX_EXPLANATION_LENGTH = 500
+MAX_EXPLANATION_LENGTH = 200
+#: Bounds of a reply's program, tighter than the query language's own (64 steps, values of
+#: 512 characters, 8 inputs): a grammar-constrained server fills what the schema allows,
+#: and a small model under strict mode (every property present) writes every step in full.
+#: A reply at these bounds is about 1,500 tokens, within the retry's doubled budget.
+MAX_REPLY_STEPS = 12
+MAX_REPLY_VALUE_LENGTH = 64
+MAX_REPLY_INPUTS = 4
 
 
 def _template(name: str) -> Template:
@@ -95,10 +102,24 @@ def reply_schema() -> dict[str, Any]:
     )
     return {
         "type": "object",
-        "properties": {"program": graph_query_strict_schema(), **rest["properties"]},
+        "properties": {"program": reply_program_schema(), **rest["properties"]},
         "required": ["program", "target_ids", "explanation"],
         "additionalProperties": False,
     }
+
+
+def reply_program_schema() -> dict[str, Any]:
+    """The program's strict-mode schema with the reply's bounds (:data:`MAX_REPLY_STEPS`,
+    :data:`MAX_REPLY_VALUE_LENGTH`, :data:`MAX_REPLY_INPUTS`)."""
+    flat = graph_query_schema()
+    flat.pop("title", None)
+    props = flat["properties"]
+    props["steps"]["maxItems"] = MAX_REPLY_STEPS
+    props["answer_step"]["maximum"] = MAX_REPLY_STEPS - 1
+    step = props["steps"]["items"]["properties"]
+    step["value"]["maxLength"] = MAX_REPLY_VALUE_LENGTH
+    step["inputs"]["maxItems"] = MAX_REPLY_INPUTS
+    return strict_schema(flat)
 
 
 def response_format() -> dict[str, Any]:

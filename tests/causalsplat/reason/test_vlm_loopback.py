@@ -31,15 +31,23 @@ from causalsplat.openai_compat import (
 )
 from causalsplat.reason import SceneContext
 from causalsplat.reason import vlm as vlm_module
-from causalsplat.reason.vlm import MAX_EXPLANATION_LENGTH, MAX_TARGET_IDS, VLMReasoner, reply_schema
+from causalsplat.reason.vlm import (
+    MAX_EXPLANATION_LENGTH,
+    MAX_REPLY_STEPS,
+    MAX_TARGET_IDS,
+    VLMReasoner,
+    reply_schema,
+)
 from queries import GraphQuery
 from queries.schema import graph_query_strict_schema
 from tests.causalsplat.reason.vlm_server import (
     Counting,
+    Filling,
     Reply,
     ScriptedServer,
     Status,
     count_tokens,
+    filled,
     strict_schema_problems,
 )
 
@@ -84,7 +92,9 @@ def test_valid_program(room: SceneContext) -> None:
     assert fmt["type"] == "json_schema" and fmt["json_schema"]["strict"] is True
     assert fmt["json_schema"]["schema"] == reply_schema()
     assert strict_schema_problems(reply_schema()) == []
-    assert reply_schema()["properties"]["program"] == graph_query_strict_schema()
+    program = reply_schema()["properties"]["program"]
+    assert program["properties"]["steps"]["maxItems"] == MAX_REPLY_STEPS
+    assert program["properties"]["answer_step"]["maximum"] == MAX_REPLY_STEPS - 1
     assert reply_schema()["properties"]["target_ids"]["maxItems"] == MAX_TARGET_IDS
     user = body["messages"][1]["content"]
     assert "6 chair |" in user and "Instruction: the chair closest to the lamp" in user
@@ -292,6 +302,24 @@ def test_a_model_that_keeps_counting_is_bounded_by_the_schema(room: SceneContext
     assert "are not entities of the scene" in feedback(server, 2)
     counted = json.loads(server.requests[2]["body"]["messages"][-2]["content"])
     assert len(counted["target_ids"]) == MAX_TARGET_IDS
+
+
+def test_a_model_that_fills_every_field_fits_the_retry_budget(room: SceneContext) -> None:
+    """SmolLM2-135M under llama.cpp's grammar fills every step of every allowed step: with
+    the query language's own bounds (64 steps, 512-character values) such a reply is cut
+    off at 1024 tokens and again at the retry's 2048; with the reply's bounds it ends."""
+    loose = reply_schema()
+    loose["properties"]["program"] = graph_query_strict_schema()
+    assert count_tokens(json.dumps(filled(loose), indent=2)) > 2048
+    worst = count_tokens(json.dumps(filled(reply_schema()), indent=2))
+    assert 1024 < worst <= 2048, worst  # cut once at the default budget, whole on the retry
+    with ScriptedServer() as server:
+        server.script.extend([Filling(), Filling()])
+        answer = reasoner(server).answer(TEXT, room)
+    finishes = [r["finish_reason"] for r in server.requests]
+    assert finishes == ["length", "stop"]
+    # the whole reply is made-up ids and words: refused for what it says, not for its size
+    assert answer.fallback is not None and "Truncated" not in answer.fallback
 
 
 def test_too_many_target_ids_are_refused(room: SceneContext) -> None:

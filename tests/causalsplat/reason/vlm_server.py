@@ -15,6 +15,10 @@ client time out). Requests are kept for inspection. It reproduces what real serv
   budget cuts it off, unless the request's schema bounds ``target_ids`` with ``maxItems``,
   which a grammar-constrained server (llama.cpp, vLLM) enforces: then it stops there and
   closes the object.
+* **A model that fills every field** (:class:`Filling`), as SmolLM2-135M does under
+  llama.cpp's grammar: every property present (strict mode), arrays at their ``maxItems``,
+  strings at their longest, as many steps as the schema allows. Whether that fits a token
+  budget depends only on the schema's bounds.
 """
 
 from __future__ import annotations
@@ -49,6 +53,11 @@ class Counting:
     explanation: str = "counting"
 
 
+@dataclass(frozen=True)
+class Filling:
+    """A reply that fills the request's schema to every bound (module docstring)."""
+
+
 _TOKEN = re.compile(r"\w+|[^\w\s]")
 
 
@@ -79,6 +88,39 @@ def counting_content(action: Counting, body: dict[str, Any]) -> str:
     n = bound if bound is not None else 100_000
     ids = ", ".join(str(i) for i in range(n))
     return f'{head}, "target_ids": [{ids}]}}'
+
+
+_PATTERN_BOUND = re.compile(r"\{(\d+),(\d+)\}\$$")
+#: What a model writes when a schema leaves a length open.
+_OPEN_ARRAY, _OPEN_STRING = 64, 512
+
+
+def filled(schema: dict[str, Any]) -> Any:
+    """The largest value ``schema`` admits: strings of 3-letter words (about a token per 4
+    characters, as real tokenizers go), numbers with 16 digits, arrays at ``maxItems``."""
+    if "anyOf" in schema:
+        return filled(next(s for s in schema["anyOf"] if s.get("type") != "null"))
+    kind = schema.get("type")
+    if kind == "object":
+        return {name: filled(sub) for name, sub in schema.get("properties", {}).items()}
+    if kind == "array":
+        return [filled(schema["items"])] * int(schema.get("maxItems", _OPEN_ARRAY))
+    if kind == "string":
+        if "enum" in schema:
+            return max(schema["enum"], key=len)
+        match = _PATTERN_BOUND.search(schema.get("pattern", ""))
+        length = int(match.group(2)) if match else int(schema.get("maxLength", _OPEN_STRING))
+        return ("abc " * length)[:length]
+    if kind == "integer":
+        return int(schema.get("maximum", 10**15))
+    if kind == "number":
+        return 1.234567890123456
+    return None
+
+
+def filling_content(body: dict[str, Any]) -> str:
+    schema = body.get("response_format", {}).get("json_schema", {}).get("schema", {})
+    return json.dumps(filled(schema), indent=2)
 
 
 # -- OpenAI's strict mode ----------------------------------------------------------------
@@ -170,7 +212,7 @@ class ScriptedServer:
     """The server (module docstring); ``strict``: refuse strict schemas OpenAI refuses."""
 
     def __init__(self, *, strict: bool = True) -> None:
-        self.script: deque[Reply | Status | Counting] = deque()
+        self.script: deque[Reply | Status | Counting | Filling] = deque()
         self.requests: list[dict[str, Any]] = []
         self.strict = strict
         server = self
@@ -199,10 +241,13 @@ class ScriptedServer:
                     return
                 if isinstance(action, Counting):
                     action = Reply(counting_content(action, body))
+                elif isinstance(action, Filling):
+                    action = Reply(filling_content(body))
                 if action.delay_s:
                     time.sleep(action.delay_s)
                 content, cut = cut_to_budget(action.content, body.get("max_tokens"))
                 finish = "length" if cut else action.finish_reason
+                server.requests[-1]["finish_reason"] = finish
                 self._send(200, _completion(body, content, finish))
 
             def _send(self, code: int, document: dict[str, Any]) -> None:
