@@ -16,6 +16,7 @@ first time it is needed and keeps it (and its RDF view) for later calls; call
 
 from __future__ import annotations
 
+import errno
 import os
 import re
 from collections.abc import Iterable, Mapping, Sequence
@@ -63,9 +64,9 @@ def open_store(url: str | None = None, *, create: bool = True) -> Store:
     A new SQLite file (or an empty PostgreSQL database) is initialised when ``create`` is
     true. Raises ``StoreConnectionError`` or ``SchemaVersionError`` (see ``graph_store``).
     """
-    return Store(
-        _open_graph_store(url or os.environ.get("CAUSALSPLAT_DB", DEFAULT_URL), create=create)
-    )
+    if url is None:
+        url = os.environ.get("CAUSALSPLAT_DB") or DEFAULT_URL
+    return Store(_open_graph_store(url, create=create))
 
 
 class Store:
@@ -375,6 +376,8 @@ class Scene:
 
 def _write_atomic(path: Path, text: str) -> None:
     """Write a file so that a crash leaves either the old file or the new one."""
+    if path.is_dir():
+        raise IsADirectoryError(errno.EISDIR, "the output is a folder, give a file path", str(path))
     tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
     try:
         with tmp.open("w", encoding="utf-8", newline="\n") as handle:

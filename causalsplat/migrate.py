@@ -6,9 +6,9 @@ from alembic import command
 from alembic.config import Config
 from alembic.script import ScriptDirectory
 
-from graph_store._engine import WRITE, create_store_engine
+from graph_store._engine import WRITE, create_store_engine, describe_url, missing_sqlite_file
 from graph_store._schema import current_revision
-from graph_store.errors import StoreConnectionError
+from graph_store.errors import StoreConnectionError, StoreNotFoundError
 
 
 def alembic_config(db_url: str | None = None) -> Config:
@@ -43,7 +43,7 @@ def _run(db_url: str, action: str, revision: str) -> tuple[str | None, str | Non
             after = current_revision(conn)
             conn.commit()
         return before, after
-    except sa.exc.OperationalError as exc:
+    except sa.exc.DatabaseError as exc:  # OperationalError, "file is not a database", ...
         reason = str(exc.orig).strip().splitlines()[0] if exc.orig else str(exc)
         raise StoreConnectionError(f"cannot migrate the store: {reason}") from exc
     finally:
@@ -61,9 +61,20 @@ def downgrade(db_url: str, revision: str) -> tuple[str | None, str | None]:
 
 
 def current(db_url: str) -> str | None:
+    """The store's schema revision (``None``: no schema); never creates a database."""
+    import sqlalchemy as sa
+
+    missing = missing_sqlite_file(db_url)
+    if missing is not None:
+        raise StoreNotFoundError(f"no store at {describe_url(db_url)}: {missing} does not exist")
     engine = create_store_engine(db_url)
     try:
         with engine.connect() as conn:
             return current_revision(conn)
+    except sa.exc.DatabaseError as exc:
+        reason = str(exc.orig).strip().splitlines()[0] if exc.orig else str(exc)
+        raise StoreConnectionError(
+            f"cannot read the store at {describe_url(db_url)}: {reason}"
+        ) from exc
     finally:
         engine.dispose()

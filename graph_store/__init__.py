@@ -13,12 +13,15 @@ from graph_store.errors import (
     SceneExistsError,
     SceneNotFound,
     SchemaVersionError,
+    SparqlArgumentError,
     SparqlError,
     SparqlForbiddenError,
+    SparqlResourceError,
     SparqlRowLimitError,
     SparqlSyntaxError,
     SparqlTimeoutError,
     StoreConnectionError,
+    StoreNotFoundError,
 )
 from graph_store.repository import GraphStore, SceneSummary, open_store
 from graph_store.types import (
@@ -53,12 +56,15 @@ __all__ = [
     "SceneNotFound",
     "SceneSummary",
     "SchemaVersionError",
+    "SparqlArgumentError",
     "SparqlError",
     "SparqlForbiddenError",
+    "SparqlResourceError",
     "SparqlRowLimitError",
     "SparqlSyntaxError",
     "SparqlTimeoutError",
     "StoreConnectionError",
+    "StoreNotFoundError",
     "View",
     "open_store",
 ]

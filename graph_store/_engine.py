@@ -16,6 +16,7 @@ upgrade), plain ``BEGIN`` for reads.
 
 from __future__ import annotations
 
+import os
 from typing import Any
 
 import sqlalchemy as sa
@@ -37,6 +38,10 @@ WRITE = {"graph_store_write": True}
 
 def parse_url(url: str | URL) -> URL:
     """Parse a database URL, raising :class:`StoreConnectionError` when it is malformed."""
+    if isinstance(url, str) and not url.strip():
+        raise StoreConnectionError(
+            "the database URL is empty: use sqlite:///PATH or postgresql+psycopg://USER@HOST/DB"
+        )
     try:
         parsed = make_url(url)
     except (sa.exc.ArgumentError, ValueError) as exc:
@@ -48,6 +53,27 @@ def parse_url(url: str | URL) -> URL:
             "use sqlite:///PATH or postgresql+psycopg://USER@HOST/DB"
         )
     return parsed
+
+
+def missing_sqlite_file(url: str | URL) -> str | None:
+    """The path of a file-backed SQLite URL whose file does not exist (else ``None``).
+
+    >>> missing_sqlite_file("sqlite:///no/such/dir/store.db")
+    'no/such/dir/store.db'
+    >>> missing_sqlite_file("sqlite://") is None
+    True
+    """
+    parsed = parse_url(url)
+    if parsed.get_backend_name() != "sqlite":
+        return None
+    database = parsed.database
+    if (
+        database in (None, "", ":memory:")
+        or parsed.query.get("uri")
+        or database.startswith("file:")
+    ):
+        return None
+    return None if os.path.exists(database) else database
 
 
 def create_store_engine(url: str | URL, *, echo: bool = False) -> Engine:

@@ -41,6 +41,10 @@ class StoreConnectionError(GraphStoreError):
     """The database URL is malformed, or the database cannot be reached or opened."""
 
 
+class StoreNotFoundError(StoreConnectionError):
+    """A read-only open found no store: the SQLite file does not exist (none is created)."""
+
+
 class SchemaVersionError(GraphStoreError):
     """The database schema is not at the revision this code expects.
 
@@ -54,6 +58,11 @@ class RDFFormatError(GraphStoreError):
 
 class SparqlError(GraphStoreError):
     """Root of the SPARQL errors."""
+
+
+class SparqlArgumentError(SparqlError, ValueError):
+    """An argument of a SPARQL call is out of range (a limit, a timeout, a binding that
+    names no variable of the query); the message gives the allowed range."""
 
 
 class SparqlSyntaxError(SparqlError, ValueError):
@@ -70,6 +79,10 @@ class SparqlForbiddenError(SparqlError):
 
 class SparqlTimeoutError(SparqlError, TimeoutError):
     """The query did not finish within its time limit."""
+
+
+class SparqlResourceError(SparqlTimeoutError):
+    """The query's worker process ran out of its memory limit (and was stopped)."""
 
 
 class SparqlRowLimitError(SparqlError):

@@ -26,7 +26,7 @@ import sqlalchemy as sa
 from sqlalchemy.engine import Connection, Engine
 
 from graph_store import models as m
-from graph_store._engine import WRITE, create_store_engine, describe_url
+from graph_store._engine import WRITE, create_store_engine, describe_url, missing_sqlite_file
 from graph_store._schema import ensure_schema
 from graph_store.errors import (
     EntityNotFound,
@@ -34,6 +34,7 @@ from graph_store.errors import (
     SceneExistsError,
     SceneNotFound,
     StoreConnectionError,
+    StoreNotFoundError,
 )
 from graph_store.labels import EncodedLabels, check_labels, decode_labels, encode_labels
 from graph_store.types import (
@@ -73,13 +74,23 @@ class SceneSummary:
 def open_store(url: str, *, create: bool = True, echo: bool = False) -> GraphStore:
     """Open (and, for an empty database with ``create=True``, initialise) a store.
 
-    Raises :class:`StoreConnectionError` when the URL is malformed or the database cannot
-    be reached, and :class:`SchemaVersionError` when its schema needs a migration.
+    With ``create=False`` nothing is written: a SQLite file that does not exist raises
+    :class:`StoreNotFoundError` instead of being created. Raises
+    :class:`StoreConnectionError` when the URL is malformed, the database cannot be reached
+    or the file is not a database, and :class:`SchemaVersionError` when its schema needs a
+    migration.
     """
+    if not create:
+        missing = missing_sqlite_file(url)
+        if missing is not None:
+            raise StoreNotFoundError(
+                f"no store at {describe_url(url)}: {missing} does not exist"
+                " (`causalsplat build` or `ingest-objects` creates one)"
+            )
     engine = create_store_engine(url, echo=echo)
     try:
         ensure_schema(engine, create=create)
-    except sa.exc.OperationalError as exc:
+    except sa.exc.DatabaseError as exc:  # OperationalError, "file is not a database", ...
         engine.dispose()
         reason = str(exc.orig).strip().splitlines()[0] if exc.orig else str(exc)
         raise StoreConnectionError(
@@ -138,7 +149,9 @@ class GraphStore:
     def _wrap_errors(self) -> Iterator[None]:
         try:
             yield
-        except sa.exc.OperationalError as exc:
+        except (sa.exc.OperationalError, sa.exc.DatabaseError) as exc:
+            if isinstance(exc, sa.exc.IntegrityError):
+                raise
             reason = str(exc.orig).strip().splitlines()[0] if exc.orig else str(exc)
             raise StoreConnectionError(f"database error on {self.url}: {reason}") from exc
 

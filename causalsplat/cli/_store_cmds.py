@@ -11,10 +11,11 @@ import click
 from causalsplat.cli._app import cli, db_option, echo_json, fail, json_option
 
 
-def _open(db_url: str) -> Any:
+def _open(db_url: str, *, create: bool = True) -> Any:
+    """The store at ``db_url``; read-only commands pass ``create=False`` (no file made)."""
     from causalsplat.api import open_store
 
-    return open_store(db_url)
+    return open_store(db_url, create=create)
 
 
 @cli.command("ingest-objects")
@@ -65,7 +66,7 @@ def ingest_objects(
 @json_option
 def scenes(db_url: str, as_json: bool) -> None:
     """List the stored scenes."""
-    with _open(db_url) as store:
+    with _open(db_url, create=False) as store:
         rows = store.scenes()
     if as_json:
         echo_json(
@@ -141,7 +142,7 @@ def export(
     if fmt in ("ply", "masks", "png"):
         _export_built(scene_ids, fmt, output, source, per_entity, question, db_url, as_json)
         return
-    with _open(db_url) as store:
+    with _open(db_url, create=False) as store:
         ids = list(scene_ids) or None
         if ids:
             for sid in ids:
@@ -178,7 +179,7 @@ def _export_built(
         fail(f"--format {fmt} needs -o PATH")
     if fmt == "masks" and not question:
         fail("--format masks draws the answer to an instruction: pass --ask TEXT")
-    with _open(db_url) as store:
+    with _open(db_url, create=False) as store:
         scene = store.scene(scene_ids[0])
         graph = scene.graph
         extra: dict[str, Any] = {}
@@ -249,7 +250,7 @@ def sparql(
         text = sys.stdin.read()
     assert text is not None
     bindings = dict(_parse_binding(b) for b in binds)
-    with _open(db_url) as store:
+    with _open(db_url, create=False) as store:
         ids = list(scene_ids) or None
         for sid in ids or ():
             store.scene(sid)

@@ -125,3 +125,20 @@ def _contains_service(node: Any) -> bool:
         elif hasattr(item, "asList") and not isinstance(item, str):
             stack.extend(list(item))
     return False
+
+
+def query_variables(query: CheckedQuery) -> frozenset[str]:
+    """Every variable name the query mentions (patterns, filters, projections, groups)."""
+    from rdflib.term import Variable
+
+    found: set[str] = set()
+    seen: set[int] = set()
+    stack: list[Any] = [query.prepared.algebra]
+    while stack:  # iterative: a deeply nested query cannot exhaust the recursion limit
+        node = stack.pop()
+        if isinstance(node, Variable):
+            found.add(str(node))
+        elif isinstance(node, dict | list | tuple | set | frozenset) and id(node) not in seen:
+            seen.add(id(node))
+            stack.extend(node.values() if isinstance(node, dict) else node)
+    return frozenset(found)

@@ -9,12 +9,16 @@
   ``FROM``/``FROM NAMED`` are refused with :class:`SparqlForbiddenError` before anything is
   evaluated, on both engines, so a query never opens a network connection.
 * User values go in through ``bindings`` (typed RDF terms), never into the query text.
-* ``limit`` bounds the rows consumed; ``timeout_s`` bounds the caller's wait. The query is
-  evaluated in a daemon worker thread; on timeout the caller gets
-  :class:`SparqlTimeoutError` at once and the evaluation is told to stop. It stops at its
-  next result (oxigraph) or its next triple lookup (rdflib); an oxigraph evaluation that
-  is still computing its first result (a large sort or aggregate) is left to finish in
-  the background, and its result is dropped.
+* ``limit`` bounds the rows consumed; ``timeout_s`` bounds the evaluation. On Linux the
+  query is evaluated in a forked worker process (it shares the view's memory copy-on-write,
+  so nothing is serialised but the rows) under an address-space limit of ``memory_mb``
+  above what the process already maps (default: half the machine's memory); on timeout the
+  worker is killed, so its time and memory are given back at once, and the caller gets
+  :class:`SparqlTimeoutError`; a worker that runs out of its memory gets
+  :class:`SparqlResourceError` (a subclass). Elsewhere, or with ``isolate=False``, the query
+  runs in a daemon thread that is told to stop on timeout: it stops at its next result
+  (oxigraph) or its next triple lookup (rdflib), but an oxigraph evaluation still
+  computing its first result (a large sort or aggregate) runs on in the background.
 """
 
 from __future__ import annotations
@@ -31,7 +35,13 @@ from typing import Any, Literal, Protocol
 from rdflib import XSD, URIRef
 from rdflib import Literal as RdfLiteral
 
-from graph_store.errors import SparqlError, SparqlRowLimitError, SparqlTimeoutError
+from graph_store.errors import (
+    SparqlArgumentError,
+    SparqlError,
+    SparqlResourceError,
+    SparqlRowLimitError,
+    SparqlTimeoutError,
+)
 from graph_store.rdf._parse import have_pyoxigraph
 from graph_store.rdf._sparql_backends import (
     OxigraphBackend,
@@ -39,7 +49,7 @@ from graph_store.rdf._sparql_backends import (
     RawResult,
     RdflibBackend,
 )
-from graph_store.rdf._sparql_guard import CheckedQuery, QueryKind, check_query
+from graph_store.rdf._sparql_guard import CheckedQuery, QueryKind, check_query, query_variables
 from graph_store.rdf._sparql_text import render_term
 from graph_store.types import SceneGraph
 
@@ -147,6 +157,8 @@ class RdfView:
         limit: int = 10_000,
         timeout_s: float = 30.0,
         on_limit: Literal["truncate", "error"] = "truncate",
+        memory_mb: int | None = None,
+        isolate: bool | None = None,
     ) -> SparqlResult:
         """Run one read-only SPARQL query.
 
@@ -156,16 +168,38 @@ class RdfView:
         ``limit``: the most rows returned; beyond it the result is truncated
         (``on_limit="truncate"``) or :class:`SparqlRowLimitError` is raised (``"error"``).
         ``timeout_s``: raise :class:`SparqlTimeoutError` when no answer came in time.
+        ``memory_mb``: the worker's memory limit above what this process maps (default:
+        half the machine's memory). ``isolate``: run in a worker process (default: where
+        ``fork`` is available, Linux) or, with ``False``, in a thread (module docstring).
         """
         if isinstance(limit, bool) or not isinstance(limit, int) or limit < 0:
-            raise ValueError(f"limit must be a non-negative integer, got {limit!r}")
+            raise SparqlArgumentError(f"limit must be an integer >= 0, got {limit!r}")
         if not (isinstance(timeout_s, int | float) and timeout_s > 0 and math.isfinite(timeout_s)):
-            raise ValueError(f"timeout_s must be a positive number, got {timeout_s!r}")
+            raise SparqlArgumentError(
+                f"timeout_s must be a finite number of seconds > 0, got {timeout_s!r}"
+            )
         if on_limit not in ("truncate", "error"):
-            raise ValueError(f"on_limit must be 'truncate' or 'error', got {on_limit!r}")
+            raise SparqlArgumentError(f"on_limit must be 'truncate' or 'error', got {on_limit!r}")
+        if memory_mb is not None and (
+            isinstance(memory_mb, bool) or not isinstance(memory_mb, int) or memory_mb < 16
+        ):
+            raise SparqlArgumentError(f"memory_mb must be an integer >= 16, got {memory_mb!r}")
         checked = check_query(text)
         terms = {_var_name(k): to_rdf_term(k, v) for k, v in (bindings or {}).items()}
-        raw = self._run_with_timeout(checked, terms, limit, timeout_s)
+        names = query_variables(checked)
+        unused = sorted(set(terms) - names)
+        if unused:
+            have = ", ".join("?" + v for v in sorted(names) if not v.startswith("__")) or "none"
+            raise SparqlArgumentError(
+                f"binding {', '.join('?' + n for n in unused)}: the query has no such"
+                f" variable (it has {have})"
+            )
+        if isolate is None:
+            isolate = can_isolate()
+        if isolate:
+            raw = self._run_in_worker(checked, terms, limit, timeout_s, memory_mb)
+        else:
+            raw = self._run_with_timeout(checked, terms, limit, timeout_s)
         truncated = len(raw.rows) > limit
         if truncated and on_limit == "error":
             raise SparqlRowLimitError(f"the query gives more than {limit} rows (limit={limit})")
@@ -207,6 +241,119 @@ class RdfView:
         if isinstance(result, BaseException):
             raise result
         return result
+
+    def _run_in_worker(
+        self,
+        checked: CheckedQuery,
+        terms: Mapping[str, URIRef | RdfLiteral],
+        limit: int,
+        timeout_s: float,
+        memory_mb: int | None,
+    ) -> RawResult:
+        import multiprocessing
+
+        context = multiprocessing.get_context("fork")
+        receive, send = context.Pipe(duplex=False)
+        budget = (memory_mb << 20) if memory_mb is not None else _default_memory_bytes()
+        worker = context.Process(
+            target=_worker_main,
+            args=(self._backend, checked, terms, limit, budget, send),
+            name="sparql-query",
+            daemon=True,
+        )
+        worker.start()
+        send.close()
+        try:
+            if not receive.poll(timeout_s):
+                raise SparqlTimeoutError(f"the SPARQL query did not finish within {timeout_s} s")
+            try:
+                status, payload = receive.recv()
+            except EOFError:
+                status, payload = "died", None
+        finally:
+            if worker.is_alive():
+                worker.kill()
+            worker.join()
+            receive.close()
+        if status == "ok":
+            return payload
+        if status == "error":
+            raise payload
+        limit_mb = _worker_cap(budget) >> 20
+        raise SparqlResourceError(
+            f"the SPARQL query ran out of memory (its worker may grow {limit_mb} MB; narrow"
+            " the query, or raise memory_mb or the process's address-space limit)"
+            if status == "memory" or worker.exitcode in (-6, -9, 134, 137)
+            else f"the SPARQL query's worker ended without an answer (exit {worker.exitcode})"
+        )
+
+
+def can_isolate() -> bool:
+    """Whether queries can run in a forked worker process (Linux)."""
+    import multiprocessing
+
+    return sys.platform.startswith("linux") and "fork" in multiprocessing.get_all_start_methods()
+
+
+def _default_memory_bytes() -> int:
+    """Half the machine's physical memory."""
+    import os
+
+    return int(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")) // 2
+
+
+def _mapped_bytes() -> int:
+    """The address space this process maps now (``/proc/self/statm``; 0 where absent)."""
+    import resource
+
+    try:
+        with open("/proc/self/statm") as statm:
+            return int(statm.read().split()[0]) * resource.getpagesize()
+    except (OSError, ValueError, IndexError):
+        return 0
+
+
+def _worker_cap(budget: int) -> int:
+    """How far a worker forked now may grow: ``budget``, or less under an inherited limit."""
+    import resource
+
+    soft, _hard = resource.getrlimit(resource.RLIMIT_AS)
+    if soft == resource.RLIM_INFINITY:
+        return budget
+    return max(0, min(budget, soft - _mapped_bytes()))
+
+
+def _worker_main(
+    backend: _Backend,
+    checked: CheckedQuery,
+    terms: Mapping[str, URIRef | RdfLiteral],
+    limit: int,
+    budget: int,
+    send: Any,
+) -> None:  # pragma: no cover - runs in the forked worker (its outcomes are tested)
+    import os
+    import resource
+
+    try:  # an engine that aborts on a failed allocation prints there: keep it off the
+        null = os.open(os.devnull, os.O_WRONLY)  # caller's terminal (errors come by pipe)
+        os.dup2(null, 2)
+        mapped = _mapped_bytes()
+        if mapped:
+            _soft, hard = resource.getrlimit(resource.RLIMIT_AS)
+            resource.setrlimit(resource.RLIMIT_AS, (mapped + _worker_cap(budget), hard))
+    except (OSError, ValueError):
+        pass  # no /proc or no permission: the inherited limits hold
+    try:
+        message: tuple[str, Any] = ("ok", backend.run(checked, terms, limit, threading.Event()))
+    except MemoryError:
+        message = ("memory", None)
+    except Exception as exc:  # handed to the caller, as the thread path does
+        message = ("error", exc)
+    try:
+        send.send(message)
+    except MemoryError:
+        send.send(("memory", None))
+    send.close()
 
 
 def _var_name(name: object) -> str:
