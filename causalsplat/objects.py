@@ -29,12 +29,12 @@ the JSON path of the bad value (``objects[3].center[1]``); nothing is stored.
 from __future__ import annotations
 
 import hashlib
-import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from causalsplat._json import JSONInputError, decode_json
 from causalsplat.errors import InputFormatError
 from causalsplat.graph.config import EdgeConfig
 from causalsplat.graph.edges import build_relations
@@ -83,9 +83,9 @@ def read_objects(path: str | Path) -> ObjectsFile:
     path = Path(path)
     data = path.read_bytes()
     try:
-        document = json.loads(data, parse_constant=_reject_constant)
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise InputFormatError(f"{path}: not valid JSON: {exc}") from exc
+        document = decode_json(data, parse_constant=_reject_constant)
+    except JSONInputError as exc:
+        raise InputFormatError(f"{path}: {exc}") from None
     except ValueError as exc:
         raise InputFormatError(f"{path}: {exc}") from exc
     return parse_objects(document, source=str(path), sha256=hashlib.sha256(data).hexdigest())

@@ -31,6 +31,7 @@ The per-op rules are in :data:`OP_SPECS` and :mod:`queries._validate`.
 from __future__ import annotations
 
 import json
+import math
 from collections.abc import Callable
 from contextvars import ContextVar
 from dataclasses import dataclass
@@ -49,6 +50,9 @@ from pydantic import (
 from graph_store.types import RelationType
 from queries.errors import QueryValidationError
 
+#: Least horizontal distance between a viewpoint's eye and target (scene units): closer,
+#: there is no direction to look in.
+MIN_VIEW_DISTANCE = 1e-6
 #: Most steps a program may have (also the schema's ``maxItems`` on ``steps``).
 MAX_STEPS = 64
 #: Most inputs of one ``union`` / ``intersect`` step.
@@ -242,6 +246,16 @@ class Viewpoint(_Model):
 
     eye: _Xyz
     target: _Xyz
+
+    @model_validator(mode="after")
+    def _looks_somewhere(self) -> Self:
+        dx, dy = self.target[0] - self.eye[0], self.target[1] - self.eye[1]
+        if not math.hypot(dx, dy) >= MIN_VIEW_DISTANCE:
+            raise ValueError(
+                "viewpoint: eye and target must be at least "
+                f"{MIN_VIEW_DISTANCE} apart horizontally (x, y), got {math.hypot(dx, dy):.3g}"
+            )
+        return self
 
 
 class Step(_Model):

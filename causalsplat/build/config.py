@@ -14,11 +14,11 @@ default. Unknown sections or keys are refused with :class:`BuildConfigError`::
 from __future__ import annotations
 
 import dataclasses
-import json
 from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
 
+from causalsplat._json import JSONInputError, decode_json
 from causalsplat.errors import InputFormatError
 from causalsplat.field import FieldConfig
 from causalsplat.graph import EdgeConfig
@@ -107,8 +107,8 @@ class BuildConfig:
     def from_file(cls, path: str | Path) -> BuildConfig:
         path = Path(path)
         try:
-            document = json.loads(path.read_text(encoding="utf-8"))
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+            document = decode_json(path.read_bytes())
+        except (OSError, JSONInputError) as exc:
             raise BuildConfigError(f"{path}: cannot read the build config: {exc}") from exc
         return cls.from_json(document, source=str(path))
 

@@ -8,14 +8,17 @@ from typing import Any
 
 import click
 
-from causalsplat.cli._app import cli, db_option, echo_json, json_option
+from causalsplat.cli._app import cli, db_option, echo_json, fail, json_option
 
 
 def _read_program(path: str) -> Any:
     """A program from a JSON file or a text-form file (``-``: standard input)."""
     from queries import GraphQuery
 
-    text = sys.stdin.read() if path == "-" else Path(path).read_text(encoding="utf-8")
+    try:
+        text = sys.stdin.read() if path == "-" else Path(path).read_text(encoding="utf-8")
+    except UnicodeDecodeError as exc:
+        fail(f"{path}: a program is JSON or the text form, not binary data ({exc.reason})")
     if text.lstrip().startswith("{"):
         return GraphQuery.parse(text)
     return GraphQuery.from_text(text)
@@ -65,7 +68,7 @@ def query(
     from queries import run_program
 
     parsed = _read_program(program)
-    with open_store(db_url) as store:
+    with open_store(db_url, create=False) as store:
         result = run_program(store.graph_store, scene_id, parsed, executor=executor)
         answer = result.answer
         ents = _entities(store.graph_store, scene_id, answer) if isinstance(answer, tuple) else []

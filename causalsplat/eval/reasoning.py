@@ -24,7 +24,6 @@ Acc@k (box IoU >= k) are :func:`referit_correct` and :func:`box_iou`.
 
 from __future__ import annotations
 
-import json
 import math
 import time
 from collections.abc import Iterable, Mapping, Sequence
@@ -32,6 +31,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from causalsplat._json import JSONInputError, decode_json
 from causalsplat.reason.errors import QueriesFileError, ReasonError
 from graph_store.errors import GraphStoreError
 from queries.errors import QueryError
@@ -126,9 +126,9 @@ def read_queries(path: str | Path) -> QueriesFile:
     and the bad field."""
     path = Path(path)
     try:
-        document = json.loads(path.read_text(encoding="utf-8"))
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise QueriesFileError(f"{path}: not valid JSON: {exc}") from exc
+        document = decode_json(path.read_bytes())
+    except JSONInputError as exc:
+        raise QueriesFileError(f"{path}: {exc}") from None
     return parse_queries(document, source=str(path))
 
 

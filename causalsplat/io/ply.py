@@ -111,12 +111,56 @@ def _ply_dtype(name: str, arr: np.ndarray) -> str:
 def _parse(path: Path) -> Any:
     plyfile = _plyfile()
     try:
+        _check_declared_size(path)
+    except FileNotFoundError as exc:
+        raise PlyFormatError(f"{path}: no such file") from exc
+    try:
         with open(path, "rb") as fh:
             return plyfile.PlyData.read(fh, mmap=False)
     except FileNotFoundError as exc:
         raise PlyFormatError(f"{path}: no such file") from exc
+    except MemoryError as exc:
+        raise PlyFormatError(f"{path}: not enough memory to read the file") from exc
     except (plyfile.PlyParseError, ValueError, EOFError, IndexError, KeyError) as exc:
         raise PlyFormatError(f"{path}: not a readable PLY (truncated or corrupt): {exc}") from exc
+
+
+_PLY_TYPE_BYTES = {
+    "char": 1, "uchar": 1, "int8": 1, "uint8": 1,
+    "short": 2, "ushort": 2, "int16": 2, "uint16": 2,
+    "int": 4, "uint": 4, "float": 4, "int32": 4, "uint32": 4, "float32": 4,
+    "double": 8, "float64": 8,
+}  # fmt: skip
+#: Longest header read before the file is called not a PLY.
+_MAX_HEADER_BYTES = 1 << 20
+
+
+def _check_declared_size(path: Path) -> None:
+    """Refuse a header whose element counts need more bytes than the file holds, before
+    anything is allocated for them (a corrupt count would otherwise ask for terabytes)."""
+    with open(path, "rb") as fh:
+        head = fh.read(_MAX_HEADER_BYTES)
+        size = os.fstat(fh.fileno()).st_size
+    end = head.find(b"end_header")
+    if not head.startswith(b"ply") or end < 0:
+        return  # plyfile names what is wrong
+    body = size - (head.find(b"\n", end) + 1)
+    binary, needed, count = True, 0, 0
+    for line in head[:end].decode("ascii", "replace").splitlines():
+        words = line.split()
+        if words[:1] == ["format"] and len(words) > 1:
+            binary = words[1] != "ascii"
+        elif words[:1] == ["element"] and len(words) == 3 and words[2].isdigit():
+            count = int(words[2])
+            needed += count if not binary else 0  # ascii: at least one byte per row
+        elif words[:1] == ["property"] and len(words) >= 3 and binary:
+            width = 1 if words[1] == "list" else _PLY_TYPE_BYTES.get(words[1], 1)
+            needed += count * width
+    if needed > body:
+        raise PlyFormatError(
+            f"{path}: the header declares {needed:,} bytes of elements but the file holds"
+            f" {max(body, 0):,} after it (a corrupt element count, or a truncated file)"
+        )
 
 
 def _column(path: Path, data: np.ndarray, name: str) -> np.ndarray:

@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from causalsplat._json import JSONInputError, decode_json
 from causalsplat.io.errors import InvalidSceneError, TransformsFormatError
 from causalsplat.io.types import Camera
 
@@ -54,6 +55,14 @@ def _intrinsics(
         raise TransformsFormatError(f"{path}: frames[{k}]: image size 'w'/'h' is missing")
     fx, fy = get("fl_x"), get("fl_y")
     ax, ay = get("camera_angle_x"), get("camera_angle_y")
+    for key, value in (("w", w), ("h", h), ("fl_x", fx), ("fl_y", fy)):
+        if value is not None and value <= 0:
+            raise TransformsFormatError(f"{path}: frames[{k}]: {key} must be > 0, got {value}")
+    for key, value in (("camera_angle_x", ax), ("camera_angle_y", ay)):
+        if value is not None and not 0 < value < math.pi:
+            raise TransformsFormatError(
+                f"{path}: frames[{k}]: {key} must be in (0, pi) radians, got {value}"
+            )
     if fx is None and ax is not None:
         fx = 0.5 * w / math.tan(0.5 * ax)
     if fy is None and ay is not None:
@@ -89,8 +98,8 @@ def read_transforms_json(
     """
     path = Path(path)
     try:
-        top = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        top = decode_json(path.read_bytes())
+    except (OSError, JSONInputError) as exc:
         raise TransformsFormatError(f"{path}: cannot read JSON: {exc}") from exc
     frames = top.get("frames") if isinstance(top, dict) else None
     if not isinstance(frames, list):

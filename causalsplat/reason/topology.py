@@ -33,6 +33,7 @@ from causalsplat.reason._builder import SCENE, ProgramBuilder
 from causalsplat.reason.parse import Constraint, Instruction, NounPhrase
 from graph_store import RelationType
 from queries import Metric, Op
+from queries.model import MIN_VIEW_DISTANCE
 from queries.semantics import normalise_text
 
 STORED = ("supported_by", "supports", "above", "below", "inside", "contains")
@@ -248,6 +249,8 @@ class Planner:
         if where is None:
             return None
         centre = list(self.ctx.centre)
+        if math.hypot(where[0] - centre[0], where[1] - centre[1]) < MIN_VIEW_DISTANCE:
+            return None  # no direction to look in: the default viewpoint
         if ins.standing_at:
             return {"eye": where, "target": centre}
         return {"eye": centre, "target": where}

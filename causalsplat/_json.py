@@ -1,0 +1,41 @@
+"""Decoding JSON files that users hand in, with one message per way they can be wrong.
+
+Every reader of a user's JSON file (objects, queries, transforms, build configs) decodes
+through :func:`decode_json` and wraps :class:`JSONInputError` in its own typed error, so
+that a binary file, a truncated file or a document nested a hundred thousand levels deep
+(which exhausts Python's recursion limit in :mod:`json`) is one line, never a traceback.
+
+>>> decode_json(b'{"a": [1, 2]}')
+{'a': [1, 2]}
+>>> decode_json(b"[" * 100_000)
+Traceback (most recent call last):
+    ...
+causalsplat._json.JSONInputError: not valid JSON: nested too deeply for Python's JSON reader
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from typing import Any
+
+
+class JSONInputError(ValueError):
+    """The bytes are not a JSON document this library can read (the message says why)."""
+
+
+def decode_json(data: bytes | str, *, parse_constant: Callable[[str], Any] | None = None) -> Any:
+    """The decoded document, or :class:`JSONInputError` naming the problem."""
+    if isinstance(data, bytes):
+        try:
+            data = data.decode("utf-8-sig")
+        except UnicodeDecodeError as exc:
+            raise JSONInputError(
+                f"not valid JSON: not UTF-8 text (byte {exc.start} is 0x{data[exc.start]:02x})"
+            ) from None
+    try:
+        return json.loads(data, parse_constant=parse_constant)
+    except json.JSONDecodeError as exc:
+        raise JSONInputError(f"not valid JSON: {exc}") from None
+    except RecursionError:
+        raise JSONInputError("not valid JSON: nested too deeply for Python's JSON reader") from None

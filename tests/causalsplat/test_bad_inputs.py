@@ -1,0 +1,189 @@
+"""Bad input through the real command line: one typed error line, a non-zero exit, no
+traceback, and the store and the working folder exactly as they were.
+
+Each row of :data:`CASES` makes its input in a fresh folder that holds a good store
+(``good.db``, the kitchen scene), runs one command and names a part of the one line it
+must print. Files in the folder are hashed before and after: a bad input changes none,
+creates none.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import resource
+import subprocess
+import sys
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+
+from tests.causalsplat.test_objects import KITCHEN
+from tests.conftest import REPO_ROOT
+
+#: Seconds a command may take before the test gives up on it (generous: CI is shared).
+COMMAND_TIMEOUT_S = float(os.environ.get("CAUSALSPLAT_TEST_COMMAND_TIMEOUT_S", "600"))
+CARTESIAN = (
+    "SELECT ?a ?b ?c ?d ?e WHERE { ?a ?p ?x . ?b ?q ?y . ?c ?r ?z . ?d ?s ?w . ?e ?t ?v }"
+    " ORDER BY ?a ?b ?c ?d ?e"
+)
+
+
+@dataclass(frozen=True)
+class Case:
+    name: str
+    make: Callable[[Path], list[str]]  # writes its input under the folder, returns argv
+    message: str  # a part of the one error line
+
+
+def _write(path: Path, data: bytes | str) -> Path:
+    path.write_bytes(data if isinstance(data, bytes) else data.encode())
+    return path
+
+
+def _corrupt(folder: Path) -> str:
+    _write(folder / "corrupt.db", b"this is not a database\n" * 100)
+    return f"sqlite:///{folder / 'corrupt.db'}"
+
+
+def _truncated(folder: Path) -> str:
+    _write(folder / "half.db", (folder / "good.db").read_bytes()[:5000])
+    return f"sqlite:///{folder / 'half.db'}"
+
+
+def _deep(folder: Path) -> str:
+    return str(_write(folder / "deep.json", '{"a":' * 100_000 + "1" + "}" * 100_000))
+
+
+def _good(folder: Path) -> str:
+    return f"sqlite:///{folder / 'good.db'}"
+
+
+def _program_file(folder: Path, program: dict[str, object]) -> str:
+    return str(_write(folder / "program.json", json.dumps(program)))
+
+
+SAME_POINT = {
+    "query_type": "spatial",
+    "steps": [
+        {"op": "scene"},
+        {"op": "filter_category", "inputs": [0], "value": "sink"},
+        {"op": "relate", "inputs": [0, 1], "relation": "left_of",
+         "viewpoint": {"eye": [1, 2, 0], "target": [1, 2, 5]}},
+    ],
+    "answer_step": 2,
+}  # fmt: skip
+
+CASES = [
+    Case("scenes: a file that is not a database",
+         lambda f: ["scenes", "--db", _corrupt(f)], "file is not a database"),
+    Case("scenes: a truncated store",
+         lambda f: ["scenes", "--db", _truncated(f)], "cannot open the store"),
+    Case("db upgrade: a file that is not a database",
+         lambda f: ["db", "upgrade", "--db", _corrupt(f)], "cannot migrate the store"),
+    Case("db current: a file that is not a database",
+         lambda f: ["db", "current", "--db", _corrupt(f)], "file is not a database"),
+    Case("scenes: a store that does not exist is not created",
+         lambda f: ["scenes", "--db", f"sqlite:///{f / 'typo.db'}"], "no store at"),
+    Case("sparql: a store that does not exist is not created",
+         lambda f: ["sparql", "ASK {}", "--db", f"sqlite:///{f / 'typo.db'}"], "no store at"),
+    Case("db current: a store that does not exist is not created",
+         lambda f: ["db", "current", "--db", f"sqlite:///{f / 'typo.db'}"], "no store at"),
+    Case("an empty --db", lambda f: ["scenes", "--db", ""], "database URL is empty"),
+    Case("ask: an empty instruction",
+         lambda f: ["ask", "", "--scene", "kitchen", "--db", _good(f)], "has no words"),
+    Case("ask: control characters only",
+         lambda f: ["ask", "\x01\x02", "--scene", "kitchen", "--db", _good(f)], "has no words"),
+    Case("sparql --timeout nan",
+         lambda f: ["sparql", "ASK {}", "--timeout", "nan", "--db", _good(f)],
+         "finite number of seconds > 0"),
+    Case("sparql --timeout inf",
+         lambda f: ["sparql", "ASK {}", "--timeout", "inf", "--db", _good(f)],
+         "finite number of seconds > 0"),
+    Case("sparql --bind a name the query does not use",
+         lambda f: ["sparql", "SELECT ?e WHERE { ?e a ?t }", "--bind", "anchr=table",
+                    "--db", _good(f)], "binding ?anchr: the query has no such variable"),
+    Case("query: a binary file",
+         lambda f: ["query", str(_write(f / "prog.bin", bytes(range(256)) * 8)),
+                    "--scene", "kitchen", "--db", _good(f)], "not binary data"),
+    Case("query: a viewpoint whose eye is its target",
+         lambda f: ["query", _program_file(f, SAME_POINT), "--scene", "kitchen",
+                    "--db", _good(f)], "eye and target must be at least"),
+    Case("ingest-objects: JSON nested 100,000 deep",
+         lambda f: ["ingest-objects", _deep(f), "--db", _good(f)], "nested too deeply"),
+    Case("eval: JSON nested 100,000 deep",
+         lambda f: ["eval", _deep(f), "--scene", "kitchen", "--db", _good(f)],
+         "nested too deeply"),
+    Case("export -o an existing folder",
+         lambda f: ["export", "-o", str(f), "--db", _good(f)], "the output is a folder"),
+]  # fmt: skip
+
+
+def _run(argv: list[str], cwd: Path, **kwargs: object) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "causalsplat", *argv],
+        capture_output=True,
+        text=True,
+        cwd=cwd,
+        env={**os.environ, "PYTHONPATH": str(REPO_ROOT)},
+        timeout=COMMAND_TIMEOUT_S,
+        **kwargs,  # type: ignore[arg-type]
+    )
+
+
+def _snapshot(folder: Path) -> dict[str, str]:
+    return {
+        str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest()
+        for p in sorted(folder.rglob("*"))
+        if p.is_file()
+    }
+
+
+@pytest.fixture(scope="module")
+def good_store(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    folder = tmp_path_factory.mktemp("good")
+    objects = _write(folder / "kitchen.json", json.dumps(KITCHEN))
+    proc = _run(["ingest-objects", str(objects), "--db", f"sqlite:///{folder / 'good.db'}"],
+                folder)  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    return folder / "good.db"
+
+
+def _assert_one_line(proc: subprocess.CompletedProcess[str], message: str) -> None:
+    assert proc.returncode != 0, proc.stdout
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1, proc.stderr
+    assert lines[0].startswith("causalsplat: error: "), lines[0]
+    assert message in lines[0], lines[0]
+
+
+@pytest.mark.parametrize("case", CASES, ids=[c.name for c in CASES])
+def test_bad_input_is_one_line_and_changes_nothing(
+    case: Case, good_store: Path, tmp_path: Path
+) -> None:
+    (tmp_path / "good.db").write_bytes(good_store.read_bytes())
+    argv = case.make(tmp_path)
+    before = _snapshot(tmp_path)
+    proc = _run(argv, tmp_path)
+    _assert_one_line(proc, case.message)
+    assert _snapshot(tmp_path) == before
+
+
+def test_a_cartesian_sparql_query_under_a_memory_cap_ends_in_an_error(
+    good_store: Path, tmp_path: Path
+) -> None:
+    """The query's worker is stopped by its limits (time or memory), the process is not:
+    under a 1 GB address-space limit the command still prints one error line."""
+    cap = 1 << 30
+
+    def limit() -> None:
+        resource.setrlimit(resource.RLIMIT_AS, (cap, cap))
+
+    db = f"sqlite:///{good_store}"
+    proc = _run(["sparql", CARTESIAN, "--timeout", "5", "--db", db], tmp_path,
+                preexec_fn=limit)  # fmt: skip
+    _assert_one_line(proc, "the SPARQL query")
+    assert "did not finish within 5.0 s" in proc.stderr or "ran out of memory" in proc.stderr
