@@ -181,3 +181,15 @@ def test_truncated_real_sample(tmp_path: Path) -> None:
         cut.write_bytes(data[:keep])
         with pytest.raises(PlyFormatError, match=f"cut{keep}.ply"):
             read_ply(cut)
+
+
+def test_a_count_beyond_the_file_is_refused_before_allocating(tmp_path: Path) -> None:
+    """A header that declares 2e9 vertices (496 GB of rows) over a 2 MB body."""
+    data = _sample().read_bytes()
+    head, sep, body = data.partition(b"end_header\n")
+    lines = [b"element vertex 2000000000" if line.startswith(b"element vertex") else line
+             for line in head.split(b"\n")]  # fmt: skip
+    huge = tmp_path / "huge.ply"
+    huge.write_bytes(b"\n".join(lines) + sep + body)
+    with pytest.raises(PlyFormatError, match=r"huge.ply: the header declares 496,000,000,000"):
+        read_ply(huge)

@@ -96,6 +96,21 @@ def test_bad_transforms_files(tmp_path: Path) -> None:
         path.write_text(json.dumps(doc))
         with pytest.raises(TransformsFormatError, match=msg):
             read_transforms_json(path)
+    eye = np.eye(4).tolist()
+    for key, value, msg in (
+        ("camera_angle_x", 0, r"camera_angle_x must be in \(0, pi\) radians, got 0"),
+        ("camera_angle_y", 3.2, r"camera_angle_y must be in \(0, pi\)"),
+        ("fl_x", 0, "fl_x must be > 0, got 0"),
+        ("w", -4, "w must be > 0"),
+    ):
+        doc = {"w": 10, "h": 8, "fl_x": 5.0, "frames": [{"transform_matrix": eye}]}
+        doc[key] = value
+        path.write_text(json.dumps(doc))
+        with pytest.raises(TransformsFormatError, match=msg):
+            read_transforms_json(path)
     path.write_text("{not json")
     with pytest.raises(TransformsFormatError, match=r"t.json: cannot read JSON"):
+        read_transforms_json(path)
+    path.write_text('{"frames": ' * 50_000 + "[]" + "}" * 50_000)
+    with pytest.raises(TransformsFormatError, match="nested too deeply"):
         read_transforms_json(path)
