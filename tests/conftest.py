@@ -18,6 +18,9 @@ import pytest
 REPO_ROOT = Path(__file__).resolve().parent.parent
 SHARED_DATA = REPO_ROOT.parent / "shared" / "data"
 POSTGRES_ENV = "CAUSALSPLAT_TEST_POSTGRES_URL"
+#: Seconds a test waits for a command it starts before giving up on it: a bound against a
+#: hung child, not a speed check (CI machines are shared and slow at times).
+COMMAND_TIMEOUT_S = float(os.environ.get("CAUSALSPLAT_TEST_COMMAND_TIMEOUT_S", "900"))
 
 
 def shared_data_path(*parts: str) -> Path:

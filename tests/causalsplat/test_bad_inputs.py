@@ -22,10 +22,8 @@ from pathlib import Path
 import pytest
 
 from tests.causalsplat.test_objects import KITCHEN
-from tests.conftest import REPO_ROOT
+from tests.conftest import COMMAND_TIMEOUT_S, REPO_ROOT
 
-#: Seconds a command may take before the test gives up on it (generous: CI is shared).
-COMMAND_TIMEOUT_S = float(os.environ.get("CAUSALSPLAT_TEST_COMMAND_TIMEOUT_S", "600"))
 CARTESIAN = (
     "SELECT ?a ?b ?c ?d ?e WHERE { ?a ?p ?x . ?b ?q ?y . ?c ?r ?z . ?d ?s ?w . ?e ?t ?v }"
     " ORDER BY ?a ?b ?c ?d ?e"

@@ -12,7 +12,7 @@ import pytest
 import rdflib
 
 from tests.causalsplat.test_objects import KITCHEN, NAN_CENTER
-from tests.conftest import REPO_ROOT
+from tests.conftest import COMMAND_TIMEOUT_S, REPO_ROOT
 
 COMMANDS = [["ingest-objects"], ["scenes"], ["export"], ["sparql"], ["db"], ["db", "upgrade"],
             ["db", "current"]]  # fmt: skip
@@ -23,7 +23,12 @@ def run(*args: str, db: str | None = None, check: bool = True) -> subprocess.Com
     if db is not None:
         argv += ["--db", db]
     proc = subprocess.run(
-        argv, capture_output=True, text=True, cwd=REPO_ROOT, env={**os.environ}, timeout=120
+        argv,
+        capture_output=True,
+        text=True,
+        cwd=REPO_ROOT,
+        env={**os.environ},
+        timeout=COMMAND_TIMEOUT_S,
     )
     if check and proc.returncode != 0:
         raise AssertionError(f"{argv} failed ({proc.returncode}): {proc.stderr}")

@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from graph_store.repository import open_store
-from tests.conftest import REPO_ROOT
+from tests.conftest import COMMAND_TIMEOUT_S, REPO_ROOT
 from tests.queries.test_query_counterfactual import removal, scene
 
 
@@ -23,7 +23,7 @@ def run(*args: str, stdin: str | None = None) -> subprocess.CompletedProcess[str
         cwd=REPO_ROOT,
         env={**os.environ},
         input=stdin,
-        timeout=120,
+        timeout=COMMAND_TIMEOUT_S,
     )
 
 

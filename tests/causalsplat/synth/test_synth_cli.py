@@ -10,13 +10,18 @@ from pathlib import Path
 
 import pytest
 
-from tests.conftest import REPO_ROOT
+from tests.conftest import COMMAND_TIMEOUT_S, REPO_ROOT
 
 
 def run(*args: str, check: bool = True) -> subprocess.CompletedProcess[str]:
     argv = [sys.executable, "-m", "causalsplat", *args]
     proc = subprocess.run(
-        argv, capture_output=True, text=True, cwd=REPO_ROOT, env={**os.environ}, timeout=300
+        argv,
+        capture_output=True,
+        text=True,
+        cwd=REPO_ROOT,
+        env={**os.environ},
+        timeout=COMMAND_TIMEOUT_S,
     )
     if check and proc.returncode != 0:
         raise AssertionError(f"{argv} failed ({proc.returncode}): {proc.stderr}")
