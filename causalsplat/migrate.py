@@ -6,7 +6,13 @@ from alembic import command
 from alembic.config import Config
 from alembic.script import ScriptDirectory
 
-from graph_store._engine import WRITE, create_store_engine, describe_url, missing_sqlite_file
+from graph_store._engine import (
+    WRITE,
+    create_store_engine,
+    describe_url,
+    missing_sqlite_file,
+    on_read_only_filesystem,
+)
 from graph_store._schema import current_revision
 from graph_store.errors import StoreConnectionError, StoreNotFoundError
 
@@ -67,7 +73,7 @@ def current(db_url: str) -> str | None:
     missing = missing_sqlite_file(db_url)
     if missing is not None:
         raise StoreNotFoundError(f"no store at {describe_url(db_url)}: {missing} does not exist")
-    engine = create_store_engine(db_url)
+    engine = create_store_engine(db_url, read_only=on_read_only_filesystem(db_url))
     try:
         with engine.connect() as conn:
             return current_revision(conn)

@@ -76,11 +76,33 @@ def missing_sqlite_file(url: str | URL) -> str | None:
     return None if os.path.exists(database) else database
 
 
-def create_store_engine(url: str | URL, *, echo: bool = False) -> Engine:
-    """Create an engine for a store URL with the settings described in the module doc."""
+def on_read_only_filesystem(url: str | URL) -> bool:
+    """Whether a file-backed SQLite URL's file exists on a filesystem mounted read-only
+    (a snapshot, a shared dataset volume): it can then only be read as immutable."""
+    parsed = parse_url(url)
+    database = parsed.database
+    if parsed.get_backend_name() != "sqlite" or missing_sqlite_file(parsed) is not None:
+        return False
+    if database in (None, "", ":memory:") or database.startswith("file:"):
+        return False
+    try:
+        return bool(os.statvfs(database).f_flag & os.ST_RDONLY)
+    except (OSError, AttributeError):
+        return False
+
+
+def create_store_engine(url: str | URL, *, echo: bool = False, read_only: bool = False) -> Engine:
+    """Create an engine for a store URL with the settings described in the module doc.
+
+    ``read_only`` (SQLite files only): open the file as immutable (``mode=ro&immutable=1``),
+    for a store on a read-only filesystem, where nobody can be writing it and SQLite could
+    not create the WAL's shared-memory file a normal reader needs.
+    """
     parsed = parse_url(url)
     try:
         if parsed.get_backend_name() == "sqlite":
+            if read_only and parsed.database not in (None, "", ":memory:"):
+                return _immutable_sqlite_engine(parsed, echo=echo)
             return _sqlite_engine(parsed, echo=echo)
         return _postgres_engine(parsed, echo=echo)
     except ImportError as exc:
@@ -116,6 +138,28 @@ def _sqlite_engine(url: URL, *, echo: bool) -> Engine:
     def _on_begin(conn: Connection) -> None:
         write = conn.get_execution_options().get("graph_store_write", False)
         conn.exec_driver_sql("BEGIN IMMEDIATE" if write else "BEGIN")
+
+    return engine
+
+
+def _immutable_sqlite_engine(url: URL, *, echo: bool) -> Engine:
+    import sqlite3
+    from urllib.parse import quote
+
+    assert url.database is not None
+    target = f"file:{quote(os.path.abspath(url.database))}?mode=ro&immutable=1"
+
+    def connect() -> sqlite3.Connection:
+        conn = sqlite3.connect(target, uri=True, check_same_thread=False)
+        conn.isolation_level = None  # SQLAlchemy's begin event emits BEGIN
+        conn.execute("PRAGMA foreign_keys=ON")
+        return conn
+
+    engine = sa.create_engine("sqlite://", creator=connect, echo=echo)
+
+    @event.listens_for(engine, "begin")
+    def _on_begin(conn: Connection) -> None:
+        conn.exec_driver_sql("BEGIN")
 
     return engine
 

@@ -26,7 +26,13 @@ import sqlalchemy as sa
 from sqlalchemy.engine import Connection, Engine
 
 from graph_store import models as m
-from graph_store._engine import WRITE, create_store_engine, describe_url, missing_sqlite_file
+from graph_store._engine import (
+    WRITE,
+    create_store_engine,
+    describe_url,
+    missing_sqlite_file,
+    on_read_only_filesystem,
+)
 from graph_store._schema import ensure_schema
 from graph_store.errors import (
     EntityNotFound,
@@ -75,7 +81,8 @@ def open_store(url: str, *, create: bool = True, echo: bool = False) -> GraphSto
     """Open (and, for an empty database with ``create=True``, initialise) a store.
 
     With ``create=False`` nothing is written: a SQLite file that does not exist raises
-    :class:`StoreNotFoundError` instead of being created. Raises
+    :class:`StoreNotFoundError` instead of being created, and one on a read-only filesystem
+    is opened as immutable (it can be read, not written). Raises
     :class:`StoreConnectionError` when the URL is malformed, the database cannot be reached
     or the file is not a database, and :class:`SchemaVersionError` when its schema needs a
     migration.
@@ -87,7 +94,8 @@ def open_store(url: str, *, create: bool = True, echo: bool = False) -> GraphSto
                 f"no store at {describe_url(url)}: {missing} does not exist"
                 " (`causalsplat build` or `ingest-objects` creates one)"
             )
-    engine = create_store_engine(url, echo=echo)
+    read_only = not create and on_read_only_filesystem(url)
+    engine = create_store_engine(url, echo=echo, read_only=read_only)
     try:
         ensure_schema(engine, create=create)
     except sa.exc.DatabaseError as exc:  # OperationalError, "file is not a database", ...

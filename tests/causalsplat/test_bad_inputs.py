@@ -15,7 +15,7 @@ import os
 import resource
 import subprocess
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -185,3 +185,39 @@ def test_a_cartesian_sparql_query_under_a_memory_cap_ends_in_an_error(
                 preexec_fn=limit)  # fmt: skip
     _assert_one_line(proc, "the SPARQL query")
     assert "did not finish within 5.0 s" in proc.stderr or "ran out of memory" in proc.stderr
+
+
+@pytest.fixture
+def read_only_mount(tmp_path: Path, good_store: Path) -> Iterator[Path]:
+    """A tmpfs holding the good store, remounted read-only (needs root; else skipped)."""
+    mount = tmp_path / "ro"
+    mount.mkdir()
+    if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=16m", "tmpfs", str(mount)],
+                      capture_output=True).returncode != 0:  # fmt: skip
+        pytest.skip("cannot mount a filesystem here (not root, or no CAP_SYS_ADMIN)")
+    try:
+        (mount / "good.db").write_bytes(good_store.read_bytes())
+        subprocess.run(["mount", "-o", "remount,ro", str(mount)], check=True)
+        yield mount / "good.db"
+    finally:
+        subprocess.run(["umount", str(mount)], check=False)
+
+
+def test_a_store_on_a_read_only_filesystem_is_read_not_written(
+    read_only_mount: Path, tmp_path: Path
+) -> None:
+    db = f"sqlite:///{read_only_mount}"
+    before = hashlib.sha256(read_only_mount.read_bytes()).hexdigest()
+    scenes = _run(["scenes", "--json", "--db", db], tmp_path)
+    assert scenes.returncode == 0, scenes.stderr
+    assert [s["scene_id"] for s in json.loads(scenes.stdout)] == ["kitchen"]
+    asked = _run(["ask", "the sink", "--scene", "kitchen", "--json", "--db", db], tmp_path)
+    assert asked.returncode == 0, asked.stderr
+    assert [e["category"] for e in json.loads(asked.stdout)["entities"]] == ["sink"]
+    sparql = _run(["sparql", "ASK { ?a csg:near ?b }", "--json", "--db", db], tmp_path)
+    assert sparql.returncode == 0 and json.loads(sparql.stdout)["boolean"] is True
+    objects = _write(tmp_path / "more.json", json.dumps({**KITCHEN, "scene_id": "more"}))
+    _assert_one_line(_run(["ingest-objects", str(objects), "--db", db], tmp_path),
+                     "cannot open the store")  # fmt: skip
+    assert hashlib.sha256(read_only_mount.read_bytes()).hexdigest() == before
+    assert sorted(p.name for p in read_only_mount.parent.iterdir()) == ["good.db"]
