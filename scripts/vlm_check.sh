@@ -11,7 +11,9 @@
 #   REPORT.json   where the `eval --json` report goes (default: vlm-check-report.json)
 # environment (all optional):
 #   PY            the venv's python (default .venv/bin/python)
-#   MAX_TOKENS    a reply's token budget (default 1024; a cut-off reply is retried with twice)
+#   MAX_TOKENS    a reply's token budget (default 2048: SmolLM2-135M under the schema's
+#                 grammar writes every field of every step, about 1,300 tokens a reply; a
+#                 cut-off reply is retried with twice)
 #   LIMIT         ask only the first N queries (default: all)
 #   CTX           the server's context size in tokens (default 8192)
 #   TIMEOUT       seconds to wait for one reply (default 600: CPU inference is slow)
@@ -26,7 +28,7 @@ set -euo pipefail
 
 cd "$(dirname "$0")/.."
 PY=${PY:-.venv/bin/python}
-MAX_TOKENS=${MAX_TOKENS:-1024}
+MAX_TOKENS=${MAX_TOKENS:-2048}
 LIMIT=${LIMIT:-0}
 CTX=${CTX:-8192}
 TIMEOUT=${TIMEOUT:-600}
