@@ -259,6 +259,12 @@ def _graph(
     labeler: Labeler | None,
 ) -> SceneGraph:
     entities = build_entities(folder.gaussians, assignment, evidence, folder.masks, config.nodes)
+    if not entities:
+        raise BuildError(
+            f"{folder.root}: the build found no entities ({len(folder.masks)} views of masks"
+            f" over {folder.gaussians.n} Gaussians); nothing was stored. Check that the masks"
+            " and cameras belong to this PLY, or lower instances.min_gaussians"
+        )
     if labeler is not None:
         entities = label_entities(entities, assignment, evidence, folder.masks,
                                   lambda v: view_image(folder, v), labeler)  # fmt: skip

@@ -290,9 +290,16 @@ def evaluate_queries(
     for q in queries.queries:
         for t in q.targets:
             if t not in local:
+                hint = (
+                    "; targets are external ids of stored entities (objects files): for a"
+                    " scene built from Gaussians, score against GT instances with"
+                    " --gt-labels FILE.npy"
+                    if not local
+                    else ""
+                )
                 raise QueriesFileError(
                     f"{queries.source}: query {q.id!r}: target {t!r} is not in scene"
-                    f" {ctx.scene_id!r}"
+                    f" {ctx.scene_id!r}{hint}"
                 )
     basis = iou_basis(ctx)
     scorer = _IouScorer(ctx, basis)

@@ -43,6 +43,7 @@ def test_build_json_report_then_query_the_stored_scene(tiny_folder: Path, tmp_pa
     without = run("eval", str(tiny_folder / "queries.json"), "--scene", "synth-tiny-0", db=db,
                   check=False)  # fmt: skip
     assert_one_line_error(without, "is not in scene")
+    assert "--gt-labels" in without.stderr
     short = tmp_path / "short.npy"
     np.save(short, np.zeros(3, dtype=np.int32))
     bad = run("eval", str(tiny_folder / "queries.json"), "--scene", "synth-tiny-0",
@@ -62,7 +63,13 @@ def test_build_errors_are_one_line_and_store_nothing(tiny_folder: Path, tmp_path
     empty = tmp_path / "empty"
     empty.mkdir()
     assert_one_line_error(run("build", str(empty), "--no-cache", db=db, check=False), "PLY")
-    assert json.loads(run("scenes", "--json", db=db).stdout) == []
+    nothing = tmp_path / "nothing.json"  # no cluster is big enough: no entity at all
+    nothing.write_text(json.dumps({"field": {"iterations": 10},
+                                   "instances": {"min_gaussians": 10**9}}))  # fmt: skip
+    assert_one_line_error(run("build", str(tiny_folder), "--config", str(nothing), "--no-cache",
+                              db=db, check=False), "the build found no entities")  # fmt: skip
+    if (tmp_path / "e.db").exists():
+        assert json.loads(run("scenes", "--json", db=db).stdout) == []
 
 
 def test_build_has_help() -> None:
