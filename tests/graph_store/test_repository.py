@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 import sqlalchemy as sa
@@ -19,6 +21,7 @@ from graph_store import (
     SceneNotFound,
     SchemaVersionError,
     StoreConnectionError,
+    StoreNotFoundError,
     open_store,
 )
 from graph_store import models as m
@@ -141,6 +144,12 @@ def test_schema_revision_is_checked(db_url: str) -> None:
 
 
 def test_open_without_create_refuses_an_empty_database(db_url: str) -> None:
+    if db_url.startswith("sqlite:///"):
+        path = Path(db_url.removeprefix("sqlite:///"))
+        with pytest.raises(StoreNotFoundError, match="does not exist"):
+            open_store(db_url, create=False)
+        assert not path.exists()  # a read-only open creates no file
+        path.touch()
     with pytest.raises(SchemaVersionError, match="holds no store"):
         open_store(db_url, create=False)
 
