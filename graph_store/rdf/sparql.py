@@ -11,9 +11,10 @@
 * User values go in through ``bindings`` (typed RDF terms), never into the query text.
 * ``limit`` bounds the rows consumed; ``timeout_s`` bounds the evaluation. On Linux the
   query is evaluated in a forked worker process (it shares the view's memory copy-on-write,
-  so nothing is serialised but the rows) under an address-space limit of ``memory_mb``
-  above what the process already maps (default: half the machine's memory); on timeout the
-  worker is killed, so its time and memory are given back at once, and the caller gets
+  so nothing is serialised but the query and the rows; it is forked once and reused) under
+  an address-space limit of ``memory_mb`` above what the process maps (default: half the
+  machine's memory); on timeout the worker is killed (the next query forks a new one), so
+  its time and memory are given back at once, and the caller gets
   :class:`SparqlTimeoutError`; a worker that runs out of its memory gets
   :class:`SparqlResourceError` (a subclass). Elsewhere, or with ``isolate=False``, the query
   runs in a daemon thread that is told to stop on timeout: it stops at its next result
@@ -38,7 +39,6 @@ from rdflib import Literal as RdfLiteral
 from graph_store.errors import (
     SparqlArgumentError,
     SparqlError,
-    SparqlResourceError,
     SparqlRowLimitError,
     SparqlTimeoutError,
 )
@@ -51,6 +51,7 @@ from graph_store.rdf._sparql_backends import (
 )
 from graph_store.rdf._sparql_guard import CheckedQuery, QueryKind, check_query, query_variables
 from graph_store.rdf._sparql_text import render_term
+from graph_store.rdf._sparql_worker import QueryWorker, can_isolate, default_budget
 from graph_store.types import SceneGraph
 
 BackendName = Literal["auto", "oxigraph", "rdflib"]
@@ -110,6 +111,7 @@ class RdfView:
     def __init__(self, backend: _Backend, scene_ids: tuple[str, ...]) -> None:
         self._backend = backend
         self.scene_ids = scene_ids
+        self._worker: QueryWorker | None = None
 
     @classmethod
     def from_graphs(
@@ -197,7 +199,12 @@ class RdfView:
         if isolate is None:
             isolate = can_isolate()
         if isolate:
-            raw = self._run_in_worker(checked, terms, limit, timeout_s, memory_mb)
+            budget = default_budget() if memory_mb is None else memory_mb << 20
+            if self._worker is None or self._worker.budget != budget:
+                if self._worker is not None:
+                    self._worker.close()
+                self._worker = QueryWorker(self._backend, budget)
+            raw = self._worker.run(checked.text, terms, limit, timeout_s)
         else:
             raw = self._run_with_timeout(checked, terms, limit, timeout_s)
         truncated = len(raw.rows) > limit
@@ -241,119 +248,6 @@ class RdfView:
         if isinstance(result, BaseException):
             raise result
         return result
-
-    def _run_in_worker(
-        self,
-        checked: CheckedQuery,
-        terms: Mapping[str, URIRef | RdfLiteral],
-        limit: int,
-        timeout_s: float,
-        memory_mb: int | None,
-    ) -> RawResult:
-        import multiprocessing
-
-        context = multiprocessing.get_context("fork")
-        receive, send = context.Pipe(duplex=False)
-        budget = (memory_mb << 20) if memory_mb is not None else _default_memory_bytes()
-        worker = context.Process(
-            target=_worker_main,
-            args=(self._backend, checked, terms, limit, budget, send),
-            name="sparql-query",
-            daemon=True,
-        )
-        worker.start()
-        send.close()
-        try:
-            if not receive.poll(timeout_s):
-                raise SparqlTimeoutError(f"the SPARQL query did not finish within {timeout_s} s")
-            try:
-                status, payload = receive.recv()
-            except EOFError:
-                status, payload = "died", None
-        finally:
-            if worker.is_alive():
-                worker.kill()
-            worker.join()
-            receive.close()
-        if status == "ok":
-            return payload
-        if status == "error":
-            raise payload
-        limit_mb = _worker_cap(budget) >> 20
-        raise SparqlResourceError(
-            f"the SPARQL query ran out of memory (its worker may grow {limit_mb} MB; narrow"
-            " the query, or raise memory_mb or the process's address-space limit)"
-            if status == "memory" or worker.exitcode in (-6, -9, 134, 137)
-            else f"the SPARQL query's worker ended without an answer (exit {worker.exitcode})"
-        )
-
-
-def can_isolate() -> bool:
-    """Whether queries can run in a forked worker process (Linux)."""
-    import multiprocessing
-
-    return sys.platform.startswith("linux") and "fork" in multiprocessing.get_all_start_methods()
-
-
-def _default_memory_bytes() -> int:
-    """Half the machine's physical memory."""
-    import os
-
-    return int(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")) // 2
-
-
-def _mapped_bytes() -> int:
-    """The address space this process maps now (``/proc/self/statm``; 0 where absent)."""
-    import resource
-
-    try:
-        with open("/proc/self/statm") as statm:
-            return int(statm.read().split()[0]) * resource.getpagesize()
-    except (OSError, ValueError, IndexError):
-        return 0
-
-
-def _worker_cap(budget: int) -> int:
-    """How far a worker forked now may grow: ``budget``, or less under an inherited limit."""
-    import resource
-
-    soft, _hard = resource.getrlimit(resource.RLIMIT_AS)
-    if soft == resource.RLIM_INFINITY:
-        return budget
-    return max(0, min(budget, soft - _mapped_bytes()))
-
-
-def _worker_main(
-    backend: _Backend,
-    checked: CheckedQuery,
-    terms: Mapping[str, URIRef | RdfLiteral],
-    limit: int,
-    budget: int,
-    send: Any,
-) -> None:  # pragma: no cover - runs in the forked worker (its outcomes are tested)
-    import os
-    import resource
-
-    try:  # an engine that aborts on a failed allocation prints there: keep it off the
-        null = os.open(os.devnull, os.O_WRONLY)  # caller's terminal (errors come by pipe)
-        os.dup2(null, 2)
-        mapped = _mapped_bytes()
-        if mapped:
-            _soft, hard = resource.getrlimit(resource.RLIMIT_AS)
-            resource.setrlimit(resource.RLIMIT_AS, (mapped + _worker_cap(budget), hard))
-    except (OSError, ValueError):
-        pass  # no /proc or no permission: the inherited limits hold
-    try:
-        message: tuple[str, Any] = ("ok", backend.run(checked, terms, limit, threading.Event()))
-    except MemoryError:
-        message = ("memory", None)
-    except Exception as exc:  # handed to the caller, as the thread path does
-        message = ("error", exc)
-    try:
-        send.send(message)
-    except MemoryError:
-        send.send(("memory", None))
-    send.close()
 
 
 def _var_name(name: object) -> str:

@@ -18,10 +18,12 @@ from graph_store import (
     SceneGraph,
     SceneMeta,
     SparqlError,
+    SparqlResourceError,
     SparqlRowLimitError,
     SparqlTimeoutError,
 )
 from graph_store.rdf import RdfView, SparqlResult, entity_iri, scene_iri
+from graph_store.rdf._sparql_worker import can_isolate
 from tests.strategies import random_scene
 
 BACKENDS = ("oxigraph", "rdflib")
@@ -216,15 +218,16 @@ def _wait_for_workers(before: int) -> bool:
     return False
 
 
+@pytest.mark.parametrize("isolate", [True, False], ids=["process", "thread"])
 @pytest.mark.parametrize("backend", BACKENDS)
-def test_timeout_stops_an_explosive_query(backend: str) -> None:
+def test_timeout_stops_an_explosive_query(backend: str, isolate: bool) -> None:
     view = RdfView.from_graphs(random_scene("s", 40, 60, seed=5), backend=backend)
     before = _sparql_threads()
     explosive = "SELECT * WHERE { ?a ?b ?c . ?d ?e ?f . ?g ?h ?i }"  # ~1e9 rows
     with pytest.raises(SparqlTimeoutError, match=r"0\.2 s"):
-        view.query(explosive, limit=10**12, timeout_s=0.2)
+        view.query(explosive, limit=10**12, timeout_s=0.2, isolate=isolate)
     assert _wait_for_workers(before), "the abandoned evaluation did not stop"
-    assert view.query("ASK { ?a csg:near ?b }", timeout_s=30).boolean is not None
+    assert view.query("ASK { ?a csg:near ?b }", timeout_s=30, isolate=isolate).boolean is not None
 
 
 def test_timeout_cancels_rdflib_inside_an_aggregate() -> None:
@@ -232,9 +235,37 @@ def test_timeout_cancels_rdflib_inside_an_aggregate() -> None:
     before = _sparql_threads()
     with pytest.raises(SparqlTimeoutError):
         view.query(
-            "SELECT (COUNT(*) AS ?n) WHERE { ?a ?b ?c . ?d ?e ?f . ?g ?h ?i }", timeout_s=0.2
+            "SELECT (COUNT(*) AS ?n) WHERE { ?a ?b ?c . ?d ?e ?f . ?g ?h ?i }",
+            timeout_s=0.2,
+            isolate=False,
         )
     assert _wait_for_workers(before), "the abandoned evaluation did not stop"
+
+
+@pytest.mark.skipif(not can_isolate(), reason="no fork here")
+def test_the_worker_is_reused_killed_on_timeout_and_bounded_in_memory() -> None:
+    import os
+
+    view = RdfView.from_graphs(random_scene("s", 40, 60, seed=5), backend="oxigraph")
+    ask = "ASK { ?a csg:near ?b }"
+    first = view.query(ask)
+    worker = view._worker
+    assert worker is not None and worker._process is not None
+    pid = worker._process.pid
+    assert view.query(ask) == first and worker._process.pid == pid  # one fork, reused
+    sort = "SELECT * WHERE { ?a ?b ?c . ?d ?e ?f . ?g ?h ?i } ORDER BY ?a ?d ?g ?c ?f ?i"
+    with pytest.raises(SparqlTimeoutError, match=r"0\.3 s"):
+        view.query(sort, timeout_s=0.3)  # still computing its first result when killed
+    with pytest.raises(ProcessLookupError):
+        os.kill(pid, 0)  # gone: its CPU and memory are back
+    assert view.query(ask) == first  # a new worker
+    with pytest.raises(SparqlResourceError, match="ran out of memory"):
+        view.query(sort, timeout_s=600, memory_mb=64)
+    assert view.query(ask, memory_mb=64) == first
+    # the same answers as in a thread, for every kind of query
+    for text in ("SELECT ?a ?b WHERE { ?a csg:near ?b } ORDER BY ?a ?b",
+                 "CONSTRUCT { ?a csg:near ?b } WHERE { ?a csg:near ?b }", ask):  # fmt: skip
+        assert view.query(text) == view.query(text, isolate=False)
 
 
 def test_bad_arguments(view: RdfView) -> None:
@@ -261,6 +292,6 @@ def test_rdflib_never_loads_graphs_while_evaluating(monkeypatch: pytest.MonkeyPa
     monkeypatch.setattr(_sparql_backends._CancellableMemory, "triples", spy)
     view = RdfView.from_graphs(small_scene(), backend="rdflib")
     assert rdflib_sparql.SPARQL_LOAD_GRAPHS is True
-    assert view.query("SELECT ?a WHERE { ?a csg:above ?b }").rows == ((e(2),),)
+    assert view.query("SELECT ?a WHERE { ?a csg:above ?b }", isolate=False).rows == ((e(2),),)
     assert seen and not any(seen)
     assert rdflib_sparql.SPARQL_LOAD_GRAPHS is True  # restored afterwards
