@@ -6,13 +6,17 @@
     categories: board, book, cup, floor, sink, stool, table, towel, wall
     entities: id category | attributes | centroid (x, y, z) | size (x, y, z)
     5 table | color=white affordance=dine,place items | 1.14 1.20 0.38 | 1.44 0.81 0.75
-    relations: src relation dst
+    relations: src relation dst...
     6 supported_by 5
+    7 near 8 9; next_to 8; supported_by 5
     ...
 
 Entities by id, attributes sorted, numbers with two decimals; of each pair of inverse
 relations one direction only (``supported_by`` not ``supports``, ``above`` not ``below``,
-``inside`` not ``contains``; ``near`` / ``next_to`` once per pair, lower id first).
+``inside`` not ``contains``; ``near`` / ``next_to`` once per pair, lower id first), one
+line per source entity with its targets grouped by relation: a scene's relations are most
+of a prompt, and one line per relation took 5,000 of the 8,192 tokens a small model reads
+on ScanNet scene0000_00.
 Entities past ``max_entities`` (and their relations) are left out, and the text says so.
 """
 
@@ -55,7 +59,7 @@ def graph_text(graph: SceneGraph, *, max_entities: int = 300) -> str:
         )
     if len(entities) > len(shown):
         lines.append(f"({len(entities) - len(shown)} more entities not shown)")
-    lines.append("relations: src relation dst")
+    lines.append("relations: src relation dst...")
     seen: set[tuple[int, str, int]] = set()
     for r in sorted(graph.relations, key=lambda r: (r.src, r.type.value, r.dst)):
         if r.src not in ids or r.dst not in ids:
@@ -69,5 +73,10 @@ def graph_text(graph: SceneGraph, *, max_entities: int = 300) -> str:
             key = (r.dst, r.type.inverse.value, r.src)
         if key not in seen:
             seen.add(key)
-    lines += [f"{s} {k} {d}" for s, k, d in sorted(seen)]
+    grouped: dict[int, dict[str, list[int]]] = {}
+    for src, kind, dst in sorted(seen):
+        grouped.setdefault(src, {}).setdefault(kind, []).append(dst)
+    for src, kinds in grouped.items():
+        parts = [f"{kind} {' '.join(str(d) for d in dsts)}" for kind, dsts in kinds.items()]
+        lines.append(f"{src} {'; '.join(parts)}")
     return "\n".join(lines)
