@@ -181,6 +181,12 @@ def read_cameras(root: Path) -> tuple[Path, tuple[Camera, ...]]:
     return source, cameras
 
 
+def camera_sizes(root: str | Path) -> dict[str, tuple[int, int]]:
+    """``(height, width)`` of every camera of a scene folder, by image stem."""
+    _source, cameras = read_cameras(Path(root))
+    return {view_stem(c.name): (int(c.height), int(c.width)) for c in cameras}
+
+
 def _camera_files(cameras_path: Path) -> list[Path]:
     if cameras_path.is_file():
         return [cameras_path]
