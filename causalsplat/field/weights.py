@@ -120,7 +120,7 @@ def view_masks(
     cols: list[np.ndarray] = []
     vals: list[np.ndarray] = []
     kept: list[int] = []
-    flat = maskset.masks.reshape(maskset.n, -1)
+    flat = maskset.masks.reshape(maskset.n, maskset.masks.shape[1] * maskset.masks.shape[2])
     for i in range(maskset.n):
         pix = np.flatnonzero(flat[i] if keep_px is None else flat[i] & keep_px)
         if pix.size < config.min_mask_pixels:

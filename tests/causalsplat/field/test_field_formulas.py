@@ -85,6 +85,10 @@ def test_view_masks_drop_small_masks_and_invalid_pixels() -> None:
     with pytest.raises(FieldConfigError, match="valid-pixel map"):
         view_masks(MaskSet("v", m), 0, FieldConfig(), np.random.default_rng(0),
                    valid=np.ones((2, 2), dtype=bool))  # fmt: skip
+    # a view where SAM found nothing: no masks, no rows (it crashed the build)
+    none = view_masks(MaskSet("v", np.zeros((0, 4, 4), dtype=bool)), 1, FieldConfig(),
+                      np.random.default_rng(0))  # fmt: skip
+    assert none.mask_index.tolist() == [] and none.weights.shape[0] == 0
 
 
 def _loss(masks: np.ndarray, feats: np.ndarray, **cfg: float) -> float:
