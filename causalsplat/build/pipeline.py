@@ -41,7 +41,7 @@ from causalsplat.field import (
 )
 from causalsplat.graph import build_relations
 from causalsplat.graph.labeling import Labeler, label_entities
-from causalsplat.graph.nodes import build_entities, build_provenance
+from causalsplat.graph.nodes import UNLABELLED, build_entities, build_provenance
 from causalsplat.instances import (
     InstanceAssignment,
     InstanceQuality,
@@ -84,6 +84,7 @@ class BuildResult:
     assignment: InstanceAssignment
     n_gaussians: int
     n_views: int
+    warnings: tuple[str, ...] = ()
 
     def to_json(self) -> dict[str, Any]:
         g = self.graph
@@ -109,6 +110,7 @@ class BuildResult:
             "total_seconds": round(sum(s.seconds for s in self.stages), 3),
             "peak_rss_mib": round(max((s.peak_rss_mib for s in self.stages), default=0.0), 1),
             "quality": None if self.quality is None else self.quality.to_json(),
+            "warnings": list(self.warnings),
         }
 
 
@@ -198,6 +200,13 @@ def build_scene(
     quality = None
     if folder.gt_labels is not None:
         quality = instance_quality(assignment.labels, folder.gt_labels)
+    warnings = []
+    if labeler is None and all(m.labels is None for m in folder.masks):
+        warnings.append(
+            "the masks carry no labels and no labeller was given: every entity is stored as"
+            f" {UNLABELLED!r}, so instructions cannot name them; add labels to the masks"
+            " or build with --labeler vlm"
+        )
     return BuildResult(
         graph=graph,
         gaussian_labels=assignment.labels.astype(np.int32),
@@ -206,6 +215,7 @@ def build_scene(
         assignment=assignment,
         n_gaussians=folder.gaussians.n,
         n_views=len(folder.cameras),
+        warnings=tuple(warnings),
     )
 
 

@@ -100,6 +100,8 @@ def build(
         tag = " (cached)" if stage["cached"] else ""
         click.echo(f"  {stage['name']:<10} {stage['seconds']:8.2f} s{tag}")
     click.echo(f"  peak memory {doc['peak_rss_mib']:.0f} MiB")
+    for warning in doc["warnings"]:
+        click.echo(f"causalsplat: warning: {warning}", err=True)
     q = doc["quality"]
     if q is not None:
         click.echo(

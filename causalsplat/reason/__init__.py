@@ -23,6 +23,7 @@ from causalsplat.reason.errors import (
     QueriesFileError,
     ReasonError,
     UnknownReasonerError,
+    UnlabelledSceneError,
 )
 from causalsplat.reason.reasoner import REASONERS, Reasoner, make_reasoner
 
@@ -36,6 +37,7 @@ __all__ = [
     "Reasoner",
     "SceneContext",
     "UnknownReasonerError",
+    "UnlabelledSceneError",
     "VLMReasoner",
     "entity_documents",
     "make_answer",

@@ -12,6 +12,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
+from causalsplat.reason.errors import UnlabelledSceneError
 from graph_store import Entity, SceneGraph
 from queries import DEFAULT_CONFIG, Executor, GraphQuery, QueryConfig, QueryResult, make_executor
 
@@ -19,6 +20,10 @@ if TYPE_CHECKING:
     import numpy as np
 
 Vec3 = tuple[float, float, float]
+
+
+#: The category of an entity nobody named (the build's ``graph.nodes.UNLABELLED``).
+UNLABELLED = "object"
 
 
 class SceneContext:
@@ -56,6 +61,21 @@ class SceneContext:
 
     def __repr__(self) -> str:
         return f"SceneContext({self.scene_id!r}, {len(self.by_id)} entities)"
+
+    def require_categories(self) -> None:
+        """Raise :class:`UnlabelledSceneError` when no entity has a category (every one is
+        the unlabelled ``object`` and none stores an affordance or caption)."""
+        if not self.by_id or set(self.categories) != {UNLABELLED}:
+            return
+        if any(
+            a.key in ("affordance", "caption") for e in self.by_id.values() for a in e.attributes
+        ):
+            return
+        raise UnlabelledSceneError(
+            f"scene {self.scene_id!r} has no categories: its {len(self.by_id)} entities were"
+            " built from masks without labels. Rebuild with --labeler vlm (a vision-language"
+            " model names each entity) or with labels in the masks"
+        )
 
     # -- running programs ----------------------------------------------------------------
 

@@ -26,3 +26,8 @@ class UnknownReasonerError(ReasonError, ValueError):
 
 class QueriesFileError(ReasonError, ValueError):
     """A queries file (DESIGN §9) is malformed; the message names the file and the field."""
+
+
+class UnlabelledSceneError(ReasonError):
+    """The scene's entities have no categories (built from masks without labels and no
+    labeller): no instruction can name anything in it. The message says how to add them."""

@@ -162,6 +162,7 @@ class OfflineReasoner:
 
     def answer(self, text: str, ctx: SceneContext) -> Answer:
         """Answer ``text`` on the scene (module docstring)."""
+        ctx.require_categories()
         grounded = self.ground(text, ctx)
         decision = decide(ProgramBuilder(ctx), grounded)
         result = ctx.run(decision.program)

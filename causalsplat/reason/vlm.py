@@ -173,6 +173,7 @@ class VLMReasoner:
         from causalsplat.reason.offline import check_instruction
 
         check_instruction(text)
+        ctx.require_categories()
         try:
             program, notes = self.program(text, ctx)
             result = ctx.run(program)
