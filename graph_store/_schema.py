@@ -1,7 +1,7 @@
 """Schema version checks and the creation of a new, empty store.
 
 The schema is owned by the Alembic revisions in ``migrations/``. A brand-new database is
-created from :data:`~graph_store.models.Base` metadata and stamped with
+created from :data:`graph_store.models.metadata` and stamped with
 :data:`SCHEMA_REVISION` in one transaction (a test holds that this equals migrating an
 empty database to head). An existing database must be at :data:`SCHEMA_REVISION`;
 otherwise the store refuses to touch it and says how to migrate it.
@@ -14,7 +14,7 @@ from sqlalchemy.engine import Connection, Engine
 
 from graph_store._engine import WRITE, describe_url
 from graph_store.errors import SchemaVersionError
-from graph_store.models import Base
+from graph_store.models import metadata
 
 #: The Alembic revision this code reads and writes. Kept equal to the head of
 #: ``migrations/versions`` by a test.
@@ -46,7 +46,7 @@ def ensure_schema(engine: Engine, *, create: bool) -> None:
             f"the store at {where} is at schema revision {revision!r}, this version of "
             f"causalsplat needs {SCHEMA_REVISION!r}: run `causalsplat db upgrade --db URL`"
         )
-    ours = set(Base.metadata.tables)
+    ours = set(metadata.tables)
     if tables & ours:
         raise SchemaVersionError(
             f"the database at {where} has store tables ({', '.join(sorted(tables & ours))}) "
@@ -68,6 +68,6 @@ def _create_schema(engine: Engine) -> None:
     with engine.connect().execution_options(**WRITE) as conn, conn.begin():
         if current_revision(conn) is not None:  # another process created it meanwhile
             return
-        Base.metadata.create_all(conn)
+        metadata.create_all(conn)
         version.create(conn)
         conn.execute(version.insert().values(version_num=SCHEMA_REVISION))

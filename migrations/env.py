@@ -12,10 +12,10 @@ import os
 from alembic import context
 
 from graph_store._engine import create_store_engine
-from graph_store.models import Base
+from graph_store.models import metadata
 
 config = context.config
-target_metadata = Base.metadata
+target_metadata = metadata
 
 
 def _url() -> str:

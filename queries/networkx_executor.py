@@ -1,16 +1,21 @@
-"""The reference executor: a program evaluated over a networkx graph in memory.
+"""The reference executor: a program evaluated over the scene graph in memory.
 
-The graph is a ``MultiDiGraph`` with one node per entity (id as node, the entity as the
-``entity`` attribute) and one edge per stored relation (``src -> dst``, keyed by the
-relation type); support is also kept as a ``DiGraph`` with an edge ``x -> y`` for every
-``x`` resting on ``y``. Every rule is the one written in :mod:`queries.semantics`.
+The graph is a networkx ``MultiDiGraph`` with one node per entity (id as node, the entity
+as the ``entity`` attribute) and one edge per stored relation (``src -> dst``, keyed by
+the relation type); support is also kept as a ``DiGraph`` with an edge ``x -> y`` for
+every ``x`` resting on ``y`` (:func:`build_graph`, :func:`support_graph`). The executor
+walks the same adjacency in networkx's own layout (node -> neighbour -> key, insertion
+ordered) held in plain dicts (:class:`_Adjacency`), so that running a program does not
+import networkx (a sixth of a cold ``causalsplat ask``); :attr:`NetworkxExecutor.nx_graph`
+and :attr:`NetworkxExecutor.support` build the networkx graphs on first use, and a test
+holds their iteration orders equal to the dicts'. Every rule is the one written in
+:mod:`queries.semantics`.
 """
 
 from __future__ import annotations
 
-from typing import Any
-
-import networkx as nx
+from functools import cached_property
+from typing import TYPE_CHECKING, Any
 
 from graph_store.types import Entity, RelationType, SceneGraph
 from queries._base import Executor, RunValue, run_sets, top_k
@@ -33,9 +38,48 @@ from queries.semantics import (
     view_relation,
 )
 
+if TYPE_CHECKING:
+    import networkx as nx
+
+#: ``node -> neighbour -> {key: None}``, insertion ordered (networkx's ``_succ`` / ``_pred``).
+Neighbours = dict[int, dict[int, dict[str, None]]]
+
+
+class _Adjacency:
+    """The scene graph and its support graph as networkx lays them out, in plain dicts.
+
+    ``succ`` / ``pred``: the ``MultiDiGraph`` of :func:`build_graph` (keys: relation
+    types); ``sup_succ`` / ``sup_pred``: the ``DiGraph`` of :func:`support_graph` (keys
+    unused). Nodes are in entity order; neighbours and keys in the order edges were added.
+    """
+
+    def __init__(self, graph: SceneGraph) -> None:
+        self.succ: Neighbours = {e.id: {} for e in graph.entities}
+        self.pred: Neighbours = {e.id: {} for e in graph.entities}
+        for r in graph.relations:
+            keys = self.succ[r.src].setdefault(r.dst, {})
+            keys[r.type.value] = None
+            self.pred[r.dst][r.src] = keys
+        self.sup_succ: Neighbours = {n: {} for n in self.succ}
+        self.sup_pred: Neighbours = {n: {} for n in self.succ}
+        on, under = RelationType.SUPPORTED_BY.value, RelationType.SUPPORTS.value
+        for u, neighbours in self.succ.items():
+            for v, keys in neighbours.items():
+                for key in keys:
+                    if key == on:
+                        self._support(u, v)
+                    elif key == under:
+                        self._support(v, u)
+
+    def _support(self, upper: int, lower: int) -> None:
+        self.sup_succ[upper].setdefault(lower, {})
+        self.sup_pred[lower].setdefault(upper, {})
+
 
 def build_graph(graph: SceneGraph) -> nx.MultiDiGraph:
     """The networkx view of a scene graph (entities as nodes, relations as keyed edges)."""
+    import networkx as nx
+
     g = nx.MultiDiGraph(scene_id=graph.scene_id)
     for e in graph.entities:
         g.add_node(e.id, entity=e)
@@ -46,6 +90,8 @@ def build_graph(graph: SceneGraph) -> nx.MultiDiGraph:
 
 def support_graph(g: nx.MultiDiGraph) -> nx.DiGraph:
     """``x -> y`` for every ``x supported_by y`` or ``y supports x`` edge."""
+    import networkx as nx
+
     sup = nx.DiGraph()
     sup.add_nodes_from(g.nodes)
     for u, v, key in g.edges(keys=True):
@@ -64,18 +110,27 @@ class NetworkxExecutor(Executor):
     def __init__(self, graph: SceneGraph, config: QueryConfig = DEFAULT_CONFIG) -> None:
         super().__init__(graph.scene_id, config)
         self.graph = graph
-        self.nx_graph = build_graph(graph)
-        self.support = support_graph(self.nx_graph)
+        self._by_id: dict[int, Entity] = {e.id: e for e in graph.entities}
+        self._adj = _Adjacency(graph)
         self._centre = _scene_centre(graph)
 
+    @cached_property
+    def nx_graph(self) -> nx.MultiDiGraph:
+        """The scene as a networkx ``MultiDiGraph`` (:func:`build_graph`), built on first use."""
+        return build_graph(self.graph)
+
+    @cached_property
+    def support(self) -> nx.DiGraph:
+        """The support ``DiGraph`` (:func:`support_graph`), built on first use."""
+        return support_graph(self.nx_graph)
+
     def _entity(self, entity_id: int) -> Entity:
-        e: Entity = self.nx_graph.nodes[entity_id]["entity"]
-        return e
+        return self._by_id[entity_id]
 
     def _execute(self, program: GraphQuery) -> QueryResult:
         paths: list[SupportPath] = []
         handlers: dict[Op, Any] = {
-            Op.SCENE: lambda i, s, ins: frozenset(self.nx_graph.nodes),
+            Op.SCENE: lambda i, s, ins: frozenset(self._adj.succ),
             Op.FILTER_CATEGORY: self._filter_category,
             Op.FILTER_ATTRIBUTE: self._filter_attribute,
             Op.FILTER_AFFORDANCE: self._filter_attribute,
@@ -128,8 +183,8 @@ class NetworkxExecutor(Executor):
         inverse = rel.inverse.value
         hits: set[int] = set()
         for a in anchors:
-            hits.update(u for u, _, key in self.nx_graph.in_edges(a, keys=True) if key == rel.value)
-            hits.update(v for _, v, key in self.nx_graph.out_edges(a, keys=True) if key == inverse)
+            hits.update(u for u, keys in self._adj.pred[a].items() if rel.value in keys)
+            hits.update(v for v, keys in self._adj.succ[a].items() if inverse in keys)
         return subjects & frozenset(hits)
 
     def _view_relate(
@@ -195,16 +250,16 @@ class NetworkxExecutor(Executor):
         frontier = list(ins[0])
         while frontier:
             node = frontier.pop()
-            for upper in self.support.predecessors(node):
+            for upper in self._adj.sup_pred[node]:
                 if upper not in seen:
                     seen.add(upper)
                     frontier.append(upper)
         return frozenset(seen)
 
     def _fall(self, i: int, removed: frozenset[int], paths: list[SupportPath]) -> RunValue:
-        supporters = {x: set(self.support.successors(x)) for x in self.support.nodes}
+        supporters = {x: set(lower) for x, lower in self._adj.sup_succ.items()}
         structural = [
-            x for x in self.nx_graph.nodes if self.config.is_structural(self._entity(x).category)
+            x for x in self._adj.succ if self.config.is_structural(self._entity(x).category)
         ]
         rounds = fall_rounds(removed, supporters, structural)
         paths.extend(support_paths(i, removed, rounds, supporters))

@@ -5,14 +5,14 @@ Reads the plain database files of WordNet (Debian package ``wordnet-base``: ``ap
 ``causalsplat/reason/data/lexicon.json.gz``: a compact JSON document holding
 
 * ``nouns``: the noun synsets of physical things (hyponyms of ``artifact``, ``natural
-  object``, ``plant``, ``food`` and ``colour``, and of every affordance seed), each as
-  ``[lemmas, hypernyms, verbs, gloss]``: its lemmas (``|``-separated, spaces for
-  underscores), the indices of its hypernyms inside the list, the indices of
-  derivationally related verb synsets, and its definition (the gloss without its quoted
-  usage examples);
-* ``verbs``: every verb synset, as ``[lemmas, hypernyms, nouns]``;
-* ``noun_index`` / ``verb_index``: lemma -> synset indices in WordNet's sense order (the
-  first is the most frequent sense);
+  object``, ``plant``, ``food`` and ``colour``, and of every affordance seed), each as one
+  tab-separated string ``lemmas<TAB>hypernyms<TAB>verbs<TAB>gloss``: its lemmas
+  (``|``-separated, spaces for underscores), the indices of its hypernyms inside the list
+  and of its derivationally related verb synsets (``,``-separated, possibly empty), and its
+  definition (the gloss without its quoted usage examples);
+* ``verbs``: every verb synset, as ``lemmas<TAB>hypernyms<TAB>nouns``;
+* ``noun_index`` / ``verb_index``: lemma -> synset indices (``,``-separated) in WordNet's
+  sense order (the first is the most frequent sense);
 * ``affordances``: for each affordance phrase, the noun synsets whose hyponyms afford it
   (the seed table below, resolved to synset indices);
 * ``colors``: single-word colour names (hyponyms of ``colour``);
@@ -25,7 +25,10 @@ Usage::
     python scripts/make_lexicon.py [--wordnet /usr/share/wordnet] [-o PATH]
     python scripts/make_lexicon.py --show chair   # print the senses of a word and exit
 
-The output is deterministic: the same WordNet files give the same bytes.
+The output is deterministic: the same WordNet files give the same bytes. Rows and index
+entries are strings, not nested lists, so that reading the file creates few objects for
+Python's garbage collector to track (a cold ``causalsplat ask`` reads it whole); the
+reader splits a row when it is first used.
 """
 
 from __future__ import annotations
@@ -40,7 +43,7 @@ from pathlib import Path
 
 WORDNET = Path("/usr/share/wordnet")
 OUT = Path(__file__).resolve().parent.parent / "causalsplat" / "reason" / "data" / "lexicon.json.gz"
-FORMAT = "causalsplat-lexicon/2"
+FORMAT = "causalsplat-lexicon/3"
 
 #: Roots of the noun subtrees that are shipped: (lemma, sense number in WordNet 3.0).
 NOUN_ROOTS: tuple[tuple[str, int], ...] = (
@@ -226,6 +229,11 @@ def hyponym_closure(nouns: dict[str, Synset], roots: list[str]) -> set[str]:
     return seen
 
 
+def ints(values: list[int]) -> str:
+    """Synset indices as the file writes them: ``,``-separated, empty for none."""
+    return ",".join(map(str, values))
+
+
 def build(root: Path) -> dict[str, object]:
     nouns, verbs = read_data(root, "noun"), read_data(root, "verb")
     noun_index, verb_index = read_index(root, "noun"), read_index(root, "verb")
@@ -236,22 +244,22 @@ def build(root: Path) -> dict[str, object]:
     verb_order = sorted(verbs)
     verb_pos = {off: i for i, off in enumerate(verb_order)}
 
-    def noun_row(s: Synset) -> list[object]:
+    def noun_row(s: Synset) -> str:
         hyper = sorted(noun_pos[h] for h in s.hypernyms if h in noun_pos)
         derived = sorted({verb_pos[o] for p, o in s.derived if p == "v" and o in verb_pos})
-        return ["|".join(s.lemmas), hyper, derived, s.gloss]
+        return "\t".join(("|".join(s.lemmas), ints(hyper), ints(derived), s.gloss))
 
-    def verb_row(s: Synset) -> list[object]:
+    def verb_row(s: Synset) -> str:
         hyper = sorted(verb_pos[h] for h in s.hypernyms if h in verb_pos)
         derived = sorted({noun_pos[o] for p, o in s.derived if p == "n" and o in noun_pos})
-        return ["|".join(s.lemmas), hyper, derived]
+        return "\t".join(("|".join(s.lemmas), ints(hyper), ints(derived)))
 
-    def restricted(index: dict[str, list[str]], pos: dict[str, int]) -> dict[str, list[int]]:
+    def restricted(index: dict[str, list[str]], pos: dict[str, int]) -> dict[str, str]:
         out = {}
         for lemma in sorted(index):
             ids = [pos[o] for o in index[lemma] if o in pos]
             if ids:
-                out[lemma] = ids
+                out[lemma] = ints(ids)
         return out
 
     color_root = noun_pos[sense(noun_index, "color.n.01")]

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import gc
 import json
 import os
 import sys
@@ -83,4 +84,9 @@ def echo_json(document: Any) -> None:
 
 
 def main() -> None:
+    # What is imported by now lives as long as the process: gc.freeze() moves it out of the
+    # collector's generations, so later full collections (and the one at exit) skip it.
+    # Measured on a cold `causalsplat ask`: about 0.09 CPU s of 0.68. Objects made later
+    # are collected as usual; raising the thresholds instead gained nothing.
+    gc.freeze()
     cli(prog_name="causalsplat")

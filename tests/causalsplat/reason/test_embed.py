@@ -1,12 +1,16 @@
-"""Sentence embeddings (the embed extra): the numpy forward pass against the reference."""
+"""Sentence embeddings (the embed extra): the numpy forward pass against the reference, and
+the memory-mapped safetensors reader against the safetensors library."""
 
 from __future__ import annotations
 
 import importlib.util
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 
+from causalsplat.errors import InputFormatError
 from causalsplat.reason import SceneContext
 from causalsplat.reason import embed as embed_module
 from causalsplat.reason.offline import OfflineReasoner
@@ -67,3 +71,64 @@ def test_erf_matches_a_float64_reference() -> None:
     ours = embed_module._erf(x)
     assert np.all(np.isfinite(ours)) and np.abs(ours - reference).max() < 2e-7
     assert embed_module._erf(np.array([np.inf, -np.inf])).tolist() == [1.0, -1.0]
+
+
+def _safetensors_bytes(header: dict[str, object], payload: bytes) -> bytes:
+    import json
+
+    text = json.dumps(header).encode()
+    return len(text).to_bytes(8, "little") + text + payload
+
+
+def test_read_safetensors_maps_tensors_without_copying(tmp_path: Path) -> None:
+    a = np.arange(6, dtype=np.float32).reshape(2, 3)
+    b = np.array([-1, 7], dtype=np.int64)
+    header = {
+        "__metadata__": {"format": "pt"},
+        "a": {"dtype": "F32", "shape": [2, 3], "data_offsets": [0, 24]},
+        "b": {"dtype": "I64", "shape": [2], "data_offsets": [24, 40]},
+        "s": {"dtype": "F32", "shape": [], "data_offsets": [40, 44]},
+    }
+    path = tmp_path / "t.safetensors"
+    payload = a.tobytes() + b.tobytes() + np.float32(2.5).tobytes()
+    path.write_bytes(_safetensors_bytes(header, payload))
+    out = embed_module.read_safetensors(path)
+    assert sorted(out) == ["a", "b", "s"]
+    assert np.array_equal(out["a"], a) and out["a"].dtype == np.float32
+    assert np.array_equal(out["b"], b) and out["s"].shape == () and float(out["s"]) == 2.5
+    assert not out["a"].flags.writeable
+
+
+@pytest.mark.parametrize(
+    ("header", "payload", "message"),
+    [
+        ({"a": {"dtype": "F32", "shape": [2], "data_offsets": [0, 8]}}, b"\0" * 4, "inside"),
+        ({"a": {"dtype": "F32", "shape": [3], "data_offsets": [0, 8]}}, b"\0" * 8, "inside"),
+        ({"a": {"dtype": "C64", "shape": [1], "data_offsets": [0, 8]}}, b"\0" * 8, "'a'"),
+        ({"a": {"dtype": "F32", "shape": [1]}}, b"\0" * 4, "bad header entry"),
+        (["a"], b"", "not a JSON object"),
+    ],
+)
+def test_read_safetensors_names_the_file_and_tensor(
+    tmp_path: Path, header: Any, payload: bytes, message: str
+) -> None:
+    path = tmp_path / "bad.safetensors"
+    path.write_bytes(_safetensors_bytes(header, payload))
+    with pytest.raises(InputFormatError, match=message) as info:
+        embed_module.read_safetensors(path)
+    assert str(path) in str(info.value)
+    for junk in (b"", b"\xff" * 12, b"\x04\0\0\0\0\0\0\0{no}"):
+        path.write_bytes(junk)
+        with pytest.raises(InputFormatError, match="safetensors"):
+            embed_module.read_safetensors(path)
+
+
+@pytest.mark.skipif(not HAS_EMBED, reason="embed extra not installed")
+def test_read_safetensors_matches_the_safetensors_library() -> None:
+    from safetensors.numpy import load_file
+
+    path = embed_module.model_dir() / "model.safetensors"
+    ours, theirs = embed_module.read_safetensors(path), load_file(str(path))
+    assert ours.keys() == theirs.keys()
+    for name, array in theirs.items():
+        assert ours[name].dtype == array.dtype and np.array_equal(ours[name], array), name

@@ -11,6 +11,8 @@ from __future__ import annotations
 import fnmatch
 import json
 import re
+import subprocess
+import sys
 import tomllib
 from collections import Counter
 from importlib import resources
@@ -24,6 +26,7 @@ from causalsplat.reason.knowledge import (
     MAX_CHARS,
     Knowledge,
     ObjectFacts,
+    knowledge_json,
     load_knowledge,
     normalize,
 )
@@ -167,14 +170,42 @@ def test_strings_are_short_lower_case_and_unpunctuated(kb: Knowledge) -> None:
     assert not bad, f"strings breaking the review rules: {bad}"
 
 
-def test_the_data_file_is_found_and_packaged() -> None:
-    data = resources.files("causalsplat.reason") / "data" / "knowledge.toml"
-    assert data.is_file()
-    assert tomllib.loads(data.read_text(encoding="utf-8"))["format"] == FORMAT
+def test_the_data_files_are_found_and_packaged() -> None:
+    data = resources.files("causalsplat.reason") / "data"
+    assert tomllib.loads((data / "knowledge.toml").read_text(encoding="utf-8"))["format"] == FORMAT
+    assert json.loads((data / "knowledge.json").read_text(encoding="utf-8"))["format"] == FORMAT
     pyproject = tomllib.loads((REPO_ROOT / "pyproject.toml").read_text(encoding="utf-8"))
     globs = pyproject["tool"]["setuptools"]["package-data"]["causalsplat"]
-    assert any(fnmatch.fnmatch("reason/data/knowledge.toml", g) for g in globs)
+    for name in ("knowledge.toml", "knowledge.json"):
+        assert any(fnmatch.fnmatch(f"reason/data/{name}", g) for g in globs), name
     assert load_knowledge() is load_knowledge()
+
+
+def test_the_shipped_json_is_generated_from_the_toml() -> None:
+    data = resources.files("causalsplat.reason") / "data"
+    expected = knowledge_json((data / "knowledge.toml").read_text(encoding="utf-8"))
+    assert (data / "knowledge.json").read_text(encoding="utf-8") == expected, (
+        "knowledge.toml changed: run scripts/make_knowledge_json.py"
+    )
+
+
+def test_the_generator_script_writes_the_json(tmp_path: Path) -> None:
+    out = tmp_path / "knowledge.json"
+    script = REPO_ROOT / "scripts" / "make_knowledge_json.py"
+    subprocess.run([sys.executable, str(script), "-o", str(out)], check=True, capture_output=True)
+    data = resources.files("causalsplat.reason") / "data"
+    assert out.read_text(encoding="utf-8") == (data / "knowledge.json").read_text(encoding="utf-8")
+
+
+def test_json_and_toml_forms_load_the_same_table(tmp_path: Path) -> None:
+    text = f'format = "{FORMAT}"\n{_GOOD}[stool]\nalso = ["stools"]\nis = "a seat"\nfor = ["x"]\n'
+    (tmp_path / "k.json").write_text(knowledge_json(text), encoding="utf-8")
+    from_json = load_knowledge(tmp_path / "k.json")
+    assert list(from_json) == list(_load(tmp_path, text))
+    assert from_json.get("stools").name == "stool"  # type: ignore[union-attr]
+    (tmp_path / "bad.json").write_text("[1]", encoding="utf-8")
+    with pytest.raises(ReasonError, match="must be a JSON object"):
+        load_knowledge(tmp_path / "bad.json")
 
 
 # -- lookups and descriptions --------------------------------------------------------------

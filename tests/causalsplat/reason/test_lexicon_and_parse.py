@@ -38,7 +38,7 @@ def test_shipped_file_keeps_the_wordnet_licence() -> None:
     document = json.loads(gzip.decompress(DATA.read_bytes()))
     assert "Princeton University" in document["licence"]
     assert "WordNet 3.0 Copyright 2006 by Princeton University" in document["licence"]
-    assert document["format"] == "causalsplat-lexicon/2"
+    assert document["format"] == "causalsplat-lexicon/3"
 
 
 @pytest.mark.skipif(not Path("/usr/share/wordnet/data.noun").exists(), reason="no wordnet-base")
