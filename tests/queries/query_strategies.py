@@ -4,6 +4,7 @@ them."""
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 from hypothesis import strategies as st
@@ -18,6 +19,7 @@ from graph_store.types import (
     SceneMeta,
 )
 from queries import GraphQuery, Metric, Op, QueryType
+from queries.model import MIN_VIEW_DISTANCE
 
 # Categories with case/whitespace variants (they normalise alike) and characters that
 # need escaping in SQL and SPARQL.
@@ -105,6 +107,9 @@ def steps_for(draw: st.DrawFn, op: Op, sets: list[int]) -> dict[str, Any]:
         if rel.is_view_dependent and draw(st.booleans()):
             eye = [draw(COORDS) for _ in range(3)]
             target = [draw(COORDS) for _ in range(3)]
+            if math.hypot(target[0] - eye[0], target[1] - eye[1]) < MIN_VIEW_DISTANCE:
+                # A viewpoint needs a horizontal direction (the model refuses it).
+                target[0] = eye[0] + 1.0
             step["viewpoint"] = {"eye": eye, "target": target}
     elif op is Op.RELATE_BETWEEN:
         step["inputs"] = _refs(draw, sets, 3)
