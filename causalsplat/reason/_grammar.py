@@ -127,6 +127,22 @@ GENERIC_TARGETS = frozenset({"one", "ones", "thing", "things", "object", "object
 WH_WORDS = frozenset({"what", "which", "where", "who", "whatever"})
 VIEW_TRIGGERS = frozenset({"facing", "face", "looking", "look", "standing", "stand", "sitting",
                            "viewing", "view", "seen", "entering", "enter", "walking"})  # fmt: skip
+#: Words that open a viewpoint clause inside a sentence ("the chair on the left *when*
+#: facing the bed") and words for the observer that may stand before its trigger.
+VIEW_SUBORDINATORS = frozenset({"when", "if", "while", "as", "whilst", "once", "after"})
+VIEW_OBSERVER = frozenset({"when", "if", "while", "as", "whilst", "once", "after", "you",
+                           "are", "your", "youre", "i", "am", "we", "one", "is", "imagine",
+                           "just", "now", "and", "so", "currently", "re", "were",
+                           "be"})  # fmt: skip
+#: Words that start the main clause after a viewpoint clause that has no comma.
+VIEW_CLAUSE_OPENERS = frozenset({"it", "its", "this", "these", "those", "they", "choose",
+                                 "chose", "select", "pick", "click", "find", "there", "then",
+                                 "target", "correct"})  # fmt: skip
+#: Where someone stands who faces the entity: "at the foot of the bed", "in front of it".
+FACING_PLACES = frozenset({"foot", "front"})
+#: Viewpoint triggers that say where the observer looks.
+LOOKING = frozenset({"facing", "face", "looking", "look", "viewing", "view", "seen", "toward",
+                     "towards"})  # fmt: skip
 #: Viewpoint triggers after which the observer stands *at* the anchor (not looking at it).
 STANDING_AT = frozenset({"standing", "stand", "sitting", "entering", "enter", "walking"})
 REMOVAL_TRIGGERS = re.compile(

@@ -10,6 +10,7 @@ touches the graph's geometry: noun phrases are resolved to category names only.
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass, field, replace
 
 from causalsplat.reason import _grammar as g
@@ -246,29 +247,96 @@ def _set_question(tokens: tuple[str, ...], target: NounPhrase) -> bool:
 
 
 def _split_viewpoint(tokens: tuple[str, ...]) -> tuple[tuple[str, ...], tuple[str, ...]]:
-    """Cut a viewpoint clause ("facing the front of the couch, ...") off the instruction."""
-    clauses: list[list[str]] = [[]]
-    for t in tokens:
-        if t == ",":
-            clauses.append([])
-        else:
-            clauses[-1].append(t)
-    for k, clause in enumerate(clauses):
-        head = clause[:4]
-        if any(t in g.VIEW_TRIGGERS for t in head) and len(clauses) > 1:
-            rest = [t for j, c in enumerate(clauses) if j != k for t in [*c, ","]]
-            return tuple(clause), tuple(rest[:-1])
+    """Cut a viewpoint clause off the instruction: ``(viewpoint tokens, the rest)``.
+
+    A viewpoint clause opens a clause ("facing the front of the couch, ...", "if you are
+    standing at the door ...") or follows a subordinator inside one ("the second chair
+    from the left when facing the windows"); only a subordinator or the observer ("you
+    are", "your") may come before its trigger, so "the lamp standing by the bed" is no
+    viewpoint, nor is "looking for" (searching). It ends at a comma or sentence end, or
+    where the main clause starts without one ("facing the bed choose the lamp ...",
+    "facing the stove it is the cabinet ...", "facing the sofa the table on the left"):
+    see :func:`_view_clause_end`. A clause that would leave nothing else is no viewpoint
+    ("look at the picture above the seat")."""
+    bounds = [-1, *(i for i, t in enumerate(tokens) if t in (",", ".", "?")), len(tokens)]
+    for lo, hi in itertools.pairwise(bounds):
+        start, end = lo + 1, hi
+        trigger = _view_trigger(tokens, start, end)
+        if trigger is None:
+            continue
+        first, at = trigger
+        stop = _view_clause_end(tokens, at + 1, end)
+        if stop == end and end < len(tokens):
+            stop = end + 1  # drop the clause's separator with it
+        main = (*tokens[:first], *tokens[stop:])
+        while main and main[0] in (",", "."):
+            main = main[1:]
+        if not any(t not in (",", ".", "?") for t in main):
+            continue
+        return tokens[first:stop], main
     return (), tokens
 
 
+def _view_trigger(tokens: tuple[str, ...], start: int, end: int) -> tuple[int, int] | None:
+    """(where the viewpoint clause begins, where its trigger is) in ``tokens[start:end]``."""
+    for i in range(start, end):
+        t = tokens[i]
+        if t not in g.VIEW_TRIGGERS:
+            continue
+        if i + 1 < end and tokens[i + 1] == "for":
+            return None  # "the one you are looking for"
+        before = tokens[start:i]
+        sub = max((j for j in range(start, i) if tokens[j] in g.VIEW_SUBORDINATORS), default=None)
+        if sub is not None and all(w in g.VIEW_OBSERVER for w in tokens[sub + 1 : i]):
+            return sub, i
+        if i - start < 4 and all(w in g.VIEW_OBSERVER for w in before):
+            return start, i
+        return None
+    return None
+
+
+#: Words that may continue a viewpoint clause right before a determiner ("facing *the*
+#: bed", "from *the* door", "looking at *all the* chairs").
+_VIEW_CONTINUE = frozenset({"at", "to", "toward", "towards", "from", "of", "with", "on", "in",
+                            "into", "by", "near", "across", "over", "through", "along",
+                            "onto", "behind", "and", "all", "both", "directly", "straight",
+                            "front", "up", "down", "out", "above", "below", "under", "beneath",
+                            "beside", "next", "between", "against", "around", "past",
+                            "opposite", "inside", "outside", "right", "just"})  # fmt: skip
+
+
+def _view_clause_end(tokens: tuple[str, ...], i: int, end: int) -> int:
+    """Where a viewpoint clause whose trigger ends before ``i`` gives way to the main
+    clause (``end`` when it runs to the separator): at a word that opens a clause
+    ("it", "this", "choose", "you", ...) or at a determiner right after a noun ("facing
+    the sofa | the table ...")."""
+    for j in range(i, end):
+        t, prev = tokens[j], tokens[j - 1]
+        if t in g.VIEW_CLAUSE_OPENERS:
+            return j
+        after_noun = not (
+            prev in _VIEW_CONTINUE or prev in g.DETERMINERS or prev in g.VIEW_TRIGGERS
+        )
+        if t in ("the", "a", "an") and after_noun and not prev.isdigit():
+            return j
+    return end
+
+
 def _viewpoint(tokens: tuple[str, ...], index: CategoryIndex) -> tuple[NounPhrase | None, bool]:
+    """The viewpoint entity of a viewpoint clause, and whether the observer stands at it
+    (standing, sitting, entering at it and not looking or facing anywhere else; standing
+    "at the foot of the bed" or "in front of the desk" faces it)."""
     if not tokens:
         return None, False
     nps = [it.np for it in read_items(tokens, index) if it.np is not None and it.np.resolved]
     named = [np for np in nps if not np.is_any]
     if not named:
         return None, False
-    standing = any(t in g.STANDING_AT for t in tokens[:3]) and "facing" not in tokens
+    standing = (
+        any(t in g.STANDING_AT for t in tokens)
+        and not any(t in g.LOOKING for t in tokens)
+        and not any(t in g.FACING_PLACES for t in tokens)
+    )
     return named[-1], standing
 
 
@@ -315,6 +383,7 @@ class _Reader:
         self.viewpoint = viewpoint
         self.target: NounPhrase | None = None
         self.subject: NounPhrase | None = None
+        self.closed = False  # a clause ended after the target: no subject any more
         self.free: NounPhrase | None = None
         self.constraints: list[Constraint] = []
         self.mods: list[Modifier] = []
@@ -344,6 +413,7 @@ class _Reader:
                 continue
             elif it.separator:
                 self.free = None
+                self.closed = self.target is not None
             k += 1
         return self._finish()
 
@@ -352,7 +422,12 @@ class _Reader:
             not self.target.resolved and np.resolved and not np.is_any and not self.constraints
         ):
             self.target = np
-        elif self.target.is_any and self.target.mention is not None and self.subject is None:
+        elif (
+            self.target.is_any
+            and self.target.mention is not None
+            and self.subject is None
+            and not self.closed
+        ):
             self.subject = np
         elif k > 0 and self.items[k - 1].conjunction and not self.constraints:
             self.target = replace(self.target, coordinated=(*self.target.coordinated, np))

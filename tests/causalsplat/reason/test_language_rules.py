@@ -1,0 +1,83 @@
+"""General rules of how people refer to things (Nr3D-style phrasings), on sentences written
+for these tests: viewpoint clauses without a comma, ...
+
+The room is the hand-made one of ``conftest.py``: a table (1) with cups (2, 4) and a box
+(3) on it, chairs west (5) and east (6) of the table and a tall one in the far corner (7),
+a door (8) on the north wall, a lamp (9) in the south-east, a couch (10) south-west.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from causalsplat.reason import SceneContext
+from causalsplat.reason._text import tokenize
+from causalsplat.reason.offline import OfflineReasoner
+from causalsplat.reason.parse import _split_viewpoint
+
+REASONER = OfflineReasoner(embeddings=False)
+
+
+def ask(ctx: SceneContext, text: str) -> tuple[int, ...]:
+    return REASONER.answer(text, ctx).entity_ids
+
+
+def split(text: str) -> tuple[str, str]:
+    view, main = _split_viewpoint(tokenize(text))
+    return " ".join(view), " ".join(main)
+
+
+@pytest.mark.parametrize(
+    ("text", "view", "main"),
+    [
+        # no comma: the main clause opens with a verb, a pronoun or a new noun phrase
+        ("when facing the sofa pick the lamp on the right", "when facing the sofa",
+         "pick the lamp on the right"),
+        ("facing the window it is the plant on the left", "facing the window",
+         "it is the plant on the left"),
+        ("facing the oven the cabinet in the top corner", "facing the oven",
+         "the cabinet in the top corner"),
+        ("standing by the door looking at the desks the correct one is on the left",
+         "standing by the door looking at the desks", "the correct one is on the left"),
+        # after the main clause, opened by a subordinator
+        ("the third picture from the right when you face the bed",
+         "when you face the bed", "the third picture from the right"),
+        # one sentence, then another
+        ("face the sink. the towel you want is on the right", "face the sink .",
+         "the towel you want is on the right"),
+    ],
+)  # fmt: skip
+def test_viewpoint_clauses(text: str, view: str, main: str) -> None:
+    assert split(text) == (view, main)
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        "the lamp standing next to the bed, near the window",  # a participle, not the observer
+        "you are looking for the small stool",  # searching, not a viewpoint
+        "look at the picture right above the seat",  # nothing left for a main clause
+    ],
+)
+def test_no_viewpoint_clause(text: str) -> None:
+    assert split(text)[0] == ""
+
+
+def test_viewpoint_without_comma_keeps_the_target(room: SceneContext) -> None:
+    # Facing the table from the centre (3, 2): right is north-west, so chair 5 (west).
+    ins = REASONER.parse("when facing the table choose the chair on the right", room)
+    assert ins.target is not None and ins.target.categories == ("chair",)
+    assert ins.viewpoint is not None and ins.viewpoint.categories == ("table",)
+    assert ask(room, "facing the table it is the chair to the right of it") == (5,)
+
+
+def test_standing_at_the_front_of_something_faces_it(room: SceneContext) -> None:
+    ins = REASONER.parse("the chair on the left if you are standing in front of the table", room)
+    assert ins.viewpoint is not None and not ins.standing_at
+    ins = REASONER.parse("if you are standing at the door, the chair on the left", room)
+    assert ins.viewpoint is not None and ins.standing_at
+
+
+def test_a_later_sentence_is_not_the_subject_of_the_one(room: SceneContext) -> None:
+    ins = REASONER.parse("facing the table the correct one is on the left. a lamp is by it", room)
+    assert ins.target is not None and ins.target.categories == ("table",)
