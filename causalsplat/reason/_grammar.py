@@ -16,12 +16,20 @@ from queries import Metric, Op
 #: Relation kinds a cue can name. Stored relations keep their RelationType value;
 #: ``closest`` / ``farthest`` / ``between`` / ``with`` are handled by the planner.
 _SIDE = r"(?:(?:to|on|at|towards?) )?(?:the )?(?:(?:far|very) )?"
+#: Words for the room as a whole ("in the middle of the room", "in the corner of the office").
+_ROOM = r"(?:room|space|area)"
 CUE_PATTERNS: tuple[tuple[str, str], ...] = (
     ("left_of", _SIDE + r"left(?: hand)?(?: side)? of"),
     ("right_of", _SIDE + r"right(?: hand)?(?: side)? of"),
     ("side_left", r"(?:on|to|at|in|towards?) the (?:far |very )?left(?: hand)?(?: side)?"),
     ("side_right", r"(?:on|to|at|in|towards?) the (?:far |very )?right(?: hand)?(?: side)?"),
     ("side_middle", r"(?:in|at) the (?:very )?(?:middle|center|centre)"),
+    ("place_centre", r"(?:(?:in|at|near|towards?|by) )?the (?:very |exact )?"
+                     r"(?:middle|center|centre) of (?:the|this) " + _ROOM),
+    ("place_corner", r"(?:in|at|into|near|towards?|by) (?:the|a) (?:far )?corner"
+                     r"(?: of (?:the|this) " + _ROOM + r"|(?! of))"),
+    ("place_alone", r"(?:all )?(?:by (?:it|them)sel(?:f|ves)|on (?:its|their) own|alone|"
+                    r"isolated|apart from the others)"),
     ("in_front_of", r"(?:(?:directly|right|just) )?in front of|(?:on|at|in) the front of"),
     ("behind", r"(?:(?:directly|right|just) )?behind|in back of|"
                r"(?:on|at|to) the back(?: side)? of"),
@@ -135,7 +143,7 @@ VIEW_OBSERVER = frozenset({"when", "if", "while", "as", "whilst", "once", "after
                            "just", "now", "and", "so", "currently", "re", "were",
                            "be"})  # fmt: skip
 #: Words that start the main clause after a viewpoint clause that has no comma.
-VIEW_CLAUSE_OPENERS = frozenset({"it", "its", "this", "these", "those", "they", "choose",
+VIEW_CLAUSE_OPENERS = frozenset({"this", "these", "those", "they", "choose",
                                  "chose", "select", "pick", "click", "find", "there", "then",
                                  "target", "correct"})  # fmt: skip
 #: Where someone stands who faces the entity: "at the foot of the bed", "in front of it".

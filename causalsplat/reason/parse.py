@@ -27,7 +27,10 @@ class NounPhrase:
     ``mention`` is ``None`` for "anything" (a wh-word or "something"); ``attributes`` are
     modifier words that may match stored attribute values ("black"); ``extremes`` are
     (metric, ``argmax``/``argmin``) from size and height words; ``side`` is ``left`` /
-    ``right`` / ``middle`` / ``top``; ``ordinal`` is 1 for "first", 2 for "second"...
+    ``right`` / ``middle`` / ``top``; ``ordinal`` is 1 for "first", 2 for "second"...;
+    ``place`` is where in the room it stands: ``corner`` (farthest from the scene centre),
+    ``centre`` (closest to it) or ``alone`` (farthest from the others of its kind);
+    ``place_negated``: not the one there ("not the one in the corner").
     """
 
     mention: Mention | None
@@ -35,6 +38,8 @@ class NounPhrase:
     extremes: tuple[tuple[Metric, Op], ...] = ()
     side: str | None = None
     ordinal: int | None = None
+    place: str | None = None
+    place_negated: bool = False
     constraints: tuple[Constraint, ...] = ()
     coordinated: tuple[NounPhrase, ...] = ()
 
@@ -305,6 +310,10 @@ _VIEW_CONTINUE = frozenset({"at", "to", "toward", "towards", "from", "of", "with
                             "opposite", "inside", "outside", "right", "just"})  # fmt: skip
 
 
+#: What follows "it" (or "its" for "it's") where it opens a clause: "it is the lamp".
+_IT_IS = frozenset({"is", "was", "will", "would", "should", "the", "a", "an", "on", "in"})
+
+
 def _view_clause_end(tokens: tuple[str, ...], i: int, end: int) -> int:
     """Where a viewpoint clause whose trigger ends before ``i`` gives way to the main
     clause (``end`` when it runs to the separator): at a word that opens a clause
@@ -312,7 +321,8 @@ def _view_clause_end(tokens: tuple[str, ...], i: int, end: int) -> int:
     the sofa | the table ...")."""
     for j in range(i, end):
         t, prev = tokens[j], tokens[j - 1]
-        if t in g.VIEW_CLAUSE_OPENERS:
+        following = tokens[j + 1] if j + 1 < end else ""
+        if t in g.VIEW_CLAUSE_OPENERS or (t in ("it", "its") and following in _IT_IS):
             return j
         after_noun = not (
             prev in _VIEW_CONTINUE or prev in g.DETERMINERS or prev in g.VIEW_TRIGGERS
@@ -398,7 +408,11 @@ class _Reader:
             if it.negation:
                 negated = True
             elif it.mod is not None:
-                self.mods.append(it.mod)
+                mod = it.mod
+                if negated and mod.kind == "place":  # "not the one in the corner"
+                    mod = replace(mod, negated=True)
+                    negated = False
+                self.mods.append(mod)
             elif it.np is not None:
                 self._noun_phrase(k, it.np)  # type: ignore[arg-type]
             elif it.cue is not None:
@@ -519,6 +533,8 @@ def _with_modifiers(np: NounPhrase, mods: list[Modifier]) -> NounPhrase:
         attributes=(*np.attributes, *(m.value for m in mods if m.kind == "attribute")),
         extremes=(*np.extremes, *((m.metric, m.direction) for m in mods if m.kind == "extreme")),
         side=np.side or next((m.value for m in mods if m.kind == "side"), None),
+        place=np.place or next((m.value for m in mods if m.kind == "place"), None),
+        place_negated=np.place_negated if np.place else any(m.negated for m in mods),
         ordinal=np.ordinal or next((m.number for m in mods if m.kind == "ordinal"), None),
     )
 
@@ -530,6 +546,8 @@ def _merge_modifiers(subject: NounPhrase, target: NounPhrase) -> NounPhrase:
         attributes=(*subject.attributes, *target.attributes),
         extremes=(*subject.extremes, *target.extremes),
         side=subject.side or target.side,
+        place=subject.place or target.place,
+        place_negated=subject.place_negated if subject.place else target.place_negated,
         ordinal=subject.ordinal or target.ordinal,
     )
 

@@ -81,3 +81,37 @@ def test_standing_at_the_front_of_something_faces_it(room: SceneContext) -> None
 def test_a_later_sentence_is_not_the_subject_of_the_one(room: SceneContext) -> None:
     ins = REASONER.parse("facing the table the correct one is on the left. a lamp is by it", room)
     assert ins.target is not None and ins.target.categories == ("table",)
+
+
+# Places in the room. Chairs 5 (1.25, 1.45), 6 (3.85, 1.45), 7 (5.4, 3.2); the scene
+# centre is (3, 2): horizontally 1.83, 1.01 and 2.68 from it. Nearest other chair: 5 is
+# 2.6 from 6, 6 and 7 are 2.34 apart.
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        ("the chair in the corner", (7,)),
+        ("the chair in the corner of the room", (7,)),
+        ("pick the chair that is in the middle of the room", (6,)),
+        ("the chair by itself", (5,)),
+        ("the chair that sits alone", (5,)),
+        ("choose the chair that is on its own", (5,)),
+    ],
+)
+def test_places_in_the_room(room: SceneContext, text: str, expected: tuple[int, ...]) -> None:
+    assert ask(room, text) == expected
+
+
+def test_places_are_not_relations_to_other_things(room: SceneContext) -> None:
+    # "in the middle of the lamp and the couch" is still "between"; "in the corner of the
+    # table" is no place in the room
+    ins = REASONER.parse("the chair in the middle of the lamp and the couch", room)
+    assert ins.target is not None and ins.target.place is None
+    assert [c.kind for c in ins.target.constraints] == ["between"]
+    ins = REASONER.parse("the cup in the corner of the table", room)
+    assert ins.target is not None and ins.target.place is None
+
+
+def test_not_in_the_corner(room: SceneContext) -> None:
+    ins = REASONER.parse("the chair that is not in the corner", room)
+    assert ins.target is not None and ins.target.place == "corner" and ins.target.place_negated
+    assert ask(room, "the chair that is not in the corner") in ((5,), (6,))
