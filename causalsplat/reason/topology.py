@@ -27,6 +27,7 @@ Relations, by kind (the singular case is a referring expression that must name o
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 from causalsplat.reason._builder import SCENE, ProgramBuilder
@@ -78,10 +79,16 @@ class Planned:
 class Planner:
     """Plans noun phrases into steps of one :class:`ProgramBuilder`."""
 
-    def __init__(self, builder: ProgramBuilder, instruction: Instruction) -> None:
+    def __init__(
+        self,
+        builder: ProgramBuilder,
+        instruction: Instruction,
+        anchor_categories: Callable[[NounPhrase], tuple[str, ...] | None] | None = None,
+    ) -> None:
         self.b = builder
         self.ctx = builder.ctx
         self.instruction = instruction
+        self._anchor_categories = anchor_categories
 
     # -- candidates ----------------------------------------------------------------------
 
@@ -92,6 +99,11 @@ class Planner:
         ``categories`` when given, else those its words name; ``None`` when it names
         nothing the scene holds."""
         b = self.b
+        if categories is None and not np.categories and role == "anchor":
+            grounded = self._anchor_categories(np) if self._anchor_categories else None
+            if grounded:
+                b.note(f"anchor {np.text!r} read as {', '.join(grounded)} (by meaning)")
+                categories = grounded
         categories = np.categories if categories is None else categories
         if np.is_any and not categories:
             step = self._non_structural()

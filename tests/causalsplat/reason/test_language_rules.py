@@ -12,6 +12,7 @@ import pytest
 
 from causalsplat.reason import SceneContext
 from causalsplat.reason._text import tokenize
+from causalsplat.reason.embed import embeddings_available
 from causalsplat.reason.offline import OfflineReasoner
 from causalsplat.reason.parse import _split_viewpoint
 
@@ -115,3 +116,55 @@ def test_not_in_the_corner(room: SceneContext) -> None:
     ins = REASONER.parse("the chair that is not in the corner", room)
     assert ins.target is not None and ins.target.place == "corner" and ins.target.place_negated
     assert ask(room, "the chair that is not in the corner") in ((5,), (6,))
+
+
+Box = tuple[int, str, tuple[float, float, float], tuple[float, float, float]]
+
+
+def _scene(objects: list[Box]) -> SceneContext:
+    from causalsplat.objects import objects_to_scene_graph, parse_objects
+
+    doc = {
+        "scene_id": "rules",
+        "objects": [
+            {"id": i, "label": label, "center": list(c), "size": list(s)}
+            for i, label, c, s in objects
+        ],
+    }
+    return SceneContext(objects_to_scene_graph(parse_objects(doc)))
+
+
+#: A kitchen with a stove (no "oven" label), a bookshelf (no "bookcase"), two stools and
+#: two chairs; stool 3 stands by the stove, stool 4 by the bookshelf.
+KITCHEN: list[Box] = [
+    (1, "stove", (0.0, 0.0, 0.45), (0.8, 0.7, 0.9)),
+    (2, "bookshelf", (6.0, 0.0, 1.0), (1.0, 0.4, 2.0)),
+    (3, "stool", (1.0, 0.2, 0.35), (0.4, 0.4, 0.7)),
+    (4, "stool", (5.0, 0.2, 0.35), (0.4, 0.4, 0.7)),
+    (5, "monitor", (3.0, 3.0, 1.0), (0.6, 0.2, 0.4)),
+    (6, "chair", (2.6, 3.6, 0.45), (0.5, 0.5, 0.9)),
+    (7, "chair", (5.5, 3.6, 0.45), (0.5, 0.5, 0.9)),
+]
+
+
+def test_a_compound_that_names_nothing_leaves_its_head() -> None:
+    # WordNet knows "computer monitor", whose sense reaches no category here; its head
+    # "monitor" names one
+    ins = REASONER.parse("the chair closest to the computer monitor", _scene(KITCHEN))
+    assert ins.target is not None
+    (relation,) = ins.target.constraints
+    assert relation.anchors[0].categories == ("monitor",)
+    assert ask(_scene(KITCHEN), "the chair closest to the computer monitor") == (6,)
+
+
+@pytest.mark.skipif(not embeddings_available(), reason="embed extra not installed")
+def test_an_unnamed_anchor_is_grounded_by_meaning() -> None:
+    reasoner = OfflineReasoner(embeddings=True)
+    ctx = _scene(KITCHEN)
+    assert reasoner.answer("the stool next to the oven", ctx).entity_ids == (3,)
+    assert reasoner.answer("the stool by the bookcase", ctx).entity_ids == (4,)
+    # a room is no anchor, nor is an anchor that means the target itself
+    grounded = reasoner.ground("the stool in the kitchen", ctx)
+    assert grounded.anchors == ()
+    grounded = reasoner.ground("the stool under the seat", ctx)
+    assert all("stool" not in g.chosen for _, g in grounded.anchors)
