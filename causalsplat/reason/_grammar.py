@@ -16,12 +16,20 @@ from queries import Metric, Op
 #: Relation kinds a cue can name. Stored relations keep their RelationType value;
 #: ``closest`` / ``farthest`` / ``between`` / ``with`` are handled by the planner.
 _SIDE = r"(?:(?:to|on|at|towards?) )?(?:the )?(?:(?:far|very) )?"
+#: Words for the room as a whole ("in the middle of the room", "in the corner of the office").
+_ROOM = r"(?:room|space|area)"
 CUE_PATTERNS: tuple[tuple[str, str], ...] = (
     ("left_of", _SIDE + r"left(?: hand)?(?: side)? of"),
     ("right_of", _SIDE + r"right(?: hand)?(?: side)? of"),
     ("side_left", r"(?:on|to|at|in|towards?) the (?:far |very )?left(?: hand)?(?: side)?"),
     ("side_right", r"(?:on|to|at|in|towards?) the (?:far |very )?right(?: hand)?(?: side)?"),
     ("side_middle", r"(?:in|at) the (?:very )?(?:middle|center|centre)"),
+    ("place_centre", r"(?:(?:in|at|near|towards?|by) )?the (?:very |exact )?"
+                     r"(?:middle|center|centre) of (?:the|this) " + _ROOM),
+    ("place_corner", r"(?:in|at|into|near|towards?|by) (?:the|a) (?:far )?corner"
+                     r"(?: of (?:the|this) " + _ROOM + r"|(?! of))"),
+    ("place_alone", r"(?:all )?(?:by (?:it|them)sel(?:f|ves)|on (?:its|their) own|alone|"
+                    r"isolated|apart from the others)"),
     ("in_front_of", r"(?:(?:directly|right|just) )?in front of|(?:on|at|in) the front of"),
     ("behind", r"(?:(?:directly|right|just) )?behind|in back of|"
                r"(?:on|at|to) the back(?: side)? of"),
@@ -127,6 +135,22 @@ GENERIC_TARGETS = frozenset({"one", "ones", "thing", "things", "object", "object
 WH_WORDS = frozenset({"what", "which", "where", "who", "whatever"})
 VIEW_TRIGGERS = frozenset({"facing", "face", "looking", "look", "standing", "stand", "sitting",
                            "viewing", "view", "seen", "entering", "enter", "walking"})  # fmt: skip
+#: Words that open a viewpoint clause inside a sentence ("the chair on the left *when*
+#: facing the bed") and words for the observer that may stand before its trigger.
+VIEW_SUBORDINATORS = frozenset({"when", "if", "while", "as", "whilst", "once", "after"})
+VIEW_OBSERVER = frozenset({"when", "if", "while", "as", "whilst", "once", "after", "you",
+                           "are", "your", "youre", "i", "am", "we", "one", "is", "imagine",
+                           "just", "now", "and", "so", "currently", "re", "were",
+                           "be"})  # fmt: skip
+#: Words that start the main clause after a viewpoint clause that has no comma.
+VIEW_CLAUSE_OPENERS = frozenset({"this", "these", "those", "they", "choose",
+                                 "chose", "select", "pick", "click", "find", "there", "then",
+                                 "target", "correct"})  # fmt: skip
+#: Where someone stands who faces the entity: "at the foot of the bed", "in front of it".
+FACING_PLACES = frozenset({"foot", "front"})
+#: Viewpoint triggers that say where the observer looks.
+LOOKING = frozenset({"facing", "face", "looking", "look", "viewing", "view", "seen", "toward",
+                     "towards"})  # fmt: skip
 #: Viewpoint triggers after which the observer stands *at* the anchor (not looking at it).
 STANDING_AT = frozenset({"standing", "stand", "sitting", "entering", "enter", "walking"})
 REMOVAL_TRIGGERS = re.compile(

@@ -20,19 +20,24 @@ from queries import Metric, Op
 
 #: Side cues: "on the left" (no "of" after it) is a modifier, not a relation.
 _SIDE_CUES = {"side_left": "left", "side_right": "right", "side_middle": "middle"}
+#: Place cues: where in the room ("in the corner", "in the middle of the room") or apart
+#: from the others of its kind ("by itself") a thing stands; modifiers of the target.
+_PLACE_CUES = {"place_corner": "corner", "place_centre": "centre", "place_alone": "alone"}
 
 
 @dataclass(frozen=True, slots=True)
 class Modifier:
     """``kind`` is ``attribute`` (``value`` a word), ``extreme`` (``value`` the word,
-    ``metric`` and ``direction`` what it ranks by), ``side`` (``value`` left/right/middle)
-    or ``ordinal`` (``number``)."""
+    ``metric`` and ``direction`` what it ranks by), ``side`` (``value`` left/right/middle),
+    ``place`` (``value`` corner/centre/alone; ``negated``: not there) or ``ordinal``
+    (``number``)."""
 
     kind: str
     value: str = ""
     direction: Op | None = None
     metric: Metric | None = None
     number: int = 0
+    negated: bool = False
 
 
 @dataclass(frozen=True, slots=True)
@@ -73,6 +78,8 @@ def _noun_phrase(mention: object, mods: list[Modifier]) -> object:
         attributes=tuple(m.value for m in mods if m.kind == "attribute"),
         extremes=tuple((m.metric, m.direction) for m in mods if m.kind == "extreme"),
         side=next((m.value for m in mods if m.kind == "side"), None),
+        place=next((m.value for m in mods if m.kind == "place"), None),
+        place_negated=any(m.negated for m in mods if m.kind == "place"),
         ordinal=next((m.number for m in mods if m.kind == "ordinal"), None),
     )
 
@@ -127,6 +134,8 @@ def read_items(tokens: tuple[str, ...], index: CategoryIndex) -> list[Item]:
             flush()
             if cue.kind in _SIDE_CUES:
                 items.append(Item(i, cue.end, mod=Modifier("side", _SIDE_CUES[cue.kind])))
+            elif cue.kind in _PLACE_CUES:
+                items.append(Item(i, cue.end, mod=Modifier("place", _PLACE_CUES[cue.kind])))
             else:
                 items.append(Item(i, cue.end, cue=cue))
             i = cue.end

@@ -183,7 +183,9 @@ def mention_at(index: CategoryIndex, tokens: tuple[str, ...], i: int) -> Mention
 
 def foreign_at(index: CategoryIndex, tokens: tuple[str, ...], i: int) -> Mention | None:
     """A noun (phrase) at ``i`` that WordNet knows but the scene index does not hold,
-    resolved through :meth:`CategoryIndex.resolve_foreign` (possibly to nothing)."""
+    resolved through :meth:`CategoryIndex.resolve_foreign` (possibly to nothing). A
+    compound WordNet knows that resolves to nothing while a later word of it names a
+    category is left to that word ("computer monitor": a monitor)."""
     lex = index.lexicon
     if tokens[i] in FUNCTION_WORDS:
         return None
@@ -194,6 +196,10 @@ def foreign_at(index: CategoryIndex, tokens: tuple[str, ...], i: int) -> Mention
         lemma = lex.phrase_lemma(words)
         if lex.has_noun(lemma):
             cats, score = _best(index.resolve_foreign(lemma))
+            if not cats and any(
+                mention_at(index, tokens, j) is not None for j in range(i + 1, i + length)
+            ):
+                return None  # "computer monitor", "round table": the head names a category
             return Mention(i, i + length, lemma, cats, score)
     if not _is_noun_word(lex, tokens[i]):
         return None

@@ -57,7 +57,7 @@ _CLOSEST_TO = {
 def decide(builder: ProgramBuilder, grounded: Grounded) -> Decision:
     """Plan and decide (module docstring); never raises on a grounded instruction."""
     ins = grounded.instruction
-    planner = Planner(builder, ins)
+    planner = Planner(builder, ins, grounded.anchor_categories)
     if ins.kind == "counterfactual":
         answer, qtype = _counterfactual(builder, planner, grounded), "counterfactual"
     elif ins.kind == "action":

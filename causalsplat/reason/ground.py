@@ -74,6 +74,13 @@ FITS = 0.1
 #: Lowest score a category must reach to stand for a noun (or a sentence) that names
 #: nothing the scene holds ("the piano" in a room without one fits nothing).
 DESCRIBED = 0.6
+#: Lowest meaning score for an anchor that names nothing the scene holds to stand for a
+#: scene category (stricter than :data:`DESCRIBED`: a wrong anchor misleads the relation).
+ANCHOR_FITS = 0.62
+#: Words for rooms, never an anchor object.
+ROOMS = frozenset({"room", "bedroom", "bathroom", "kitchen", "office", "hallway", "hall",
+                   "lobby", "classroom", "restroom", "lounge", "studio", "apartment",
+                   "closet"})  # fmt: skip
 #: Candidates kept on an answer.
 TOP_K = 5
 #: A category that affords what the best one affords for a need joins it when it scores
@@ -161,6 +168,15 @@ class Grounded:
     instruction: Instruction
     target: Grounding | None
     removed: tuple[Grounding, ...] = field(default=())
+    anchors: tuple[tuple[NounPhrase, Grounding], ...] = field(default=())
+
+    def anchor_categories(self, np: NounPhrase) -> tuple[str, ...] | None:
+        """The categories an anchor phrase that names none was grounded to by meaning
+        ("the oven" in a kitchen with a stove), or ``None``."""
+        for phrase, g in self.anchors:
+            if phrase == np and g.chosen:
+                return g.chosen
+        return None
 
 
 class Grounder:
@@ -215,9 +231,31 @@ class Grounder:
         if target is None or (target.mention is None and not target.constraints):
             # nothing in it reads as a noun phrase: what does the sentence as a whole mean?
             return Grounded(ins, self._rank("described", ins.text.strip(), {}, fits=DESCRIBED))
-        if target.is_any:
-            return Grounded(ins, None)
-        return Grounded(ins, self.phrase(target))
+        grounding = None if target.is_any else self.phrase(target)
+        anchors = self.anchors(target, () if grounding is None else grounding.chosen)
+        return Grounded(ins, grounding, anchors=anchors)
+
+    def anchors(
+        self, target: NounPhrase, chosen: tuple[str, ...] = ()
+    ) -> tuple[tuple[NounPhrase, Grounding], ...]:
+        """Anchors whose words name no scene category, grounded by meaning when one fits
+        well (:data:`ANCHOR_FITS`): "the chair next to the bookcase" in a scene with a
+        bookshelf. Rooms ("the bedroom") stay unknown, and so does an anchor that would
+        mean the target's own categories (``chosen``: "the sink under the faucet")."""
+        out: list[tuple[NounPhrase, Grounding]] = []
+        stack = [target]
+        while stack:
+            np_ = stack.pop()
+            for c in np_.constraints:
+                for a in c.anchors:
+                    stack.append(a)
+                    m = a.mention
+                    if m is None or m.generic or a.categories or m.phrase in ROOMS:
+                        continue
+                    g = self._rank("described", m.phrase, {}, fits=ANCHOR_FITS)
+                    if g.chosen and not set(g.chosen) & set(chosen):
+                        out.append((a, g))
+        return tuple(out)
 
     def phrase(self, np: NounPhrase) -> Grounding:
         """A noun phrase: the categories its words name (by name, synonym, head noun, or

@@ -229,6 +229,8 @@ def _describe(ins: Instruction) -> str:
         parts.append(f"{neg}{c.kind} {' and '.join(repr(a.text) for a in c.anchors)}")
     if target.extremes:
         parts.append(f"{target.extremes[0][1]} {target.extremes[0][0]}")
+    if target.place:
+        parts.append(f"place {'not ' if target.place_negated else ''}{target.place}")
     if target.side:
         parts.append(f"side {target.side}" + (f" #{target.ordinal}" if target.ordinal else ""))
     if ins.viewpoint is not None:

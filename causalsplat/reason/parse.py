@@ -10,6 +10,7 @@ touches the graph's geometry: noun phrases are resolved to category names only.
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass, field, replace
 
 from causalsplat.reason import _grammar as g
@@ -26,7 +27,10 @@ class NounPhrase:
     ``mention`` is ``None`` for "anything" (a wh-word or "something"); ``attributes`` are
     modifier words that may match stored attribute values ("black"); ``extremes`` are
     (metric, ``argmax``/``argmin``) from size and height words; ``side`` is ``left`` /
-    ``right`` / ``middle`` / ``top``; ``ordinal`` is 1 for "first", 2 for "second"...
+    ``right`` / ``middle`` / ``top``; ``ordinal`` is 1 for "first", 2 for "second"...;
+    ``place`` is where in the room it stands: ``corner`` (farthest from the scene centre),
+    ``centre`` (closest to it) or ``alone`` (farthest from the others of its kind);
+    ``place_negated``: not the one there ("not the one in the corner").
     """
 
     mention: Mention | None
@@ -34,6 +38,8 @@ class NounPhrase:
     extremes: tuple[tuple[Metric, Op], ...] = ()
     side: str | None = None
     ordinal: int | None = None
+    place: str | None = None
+    place_negated: bool = False
     constraints: tuple[Constraint, ...] = ()
     coordinated: tuple[NounPhrase, ...] = ()
 
@@ -246,29 +252,101 @@ def _set_question(tokens: tuple[str, ...], target: NounPhrase) -> bool:
 
 
 def _split_viewpoint(tokens: tuple[str, ...]) -> tuple[tuple[str, ...], tuple[str, ...]]:
-    """Cut a viewpoint clause ("facing the front of the couch, ...") off the instruction."""
-    clauses: list[list[str]] = [[]]
-    for t in tokens:
-        if t == ",":
-            clauses.append([])
-        else:
-            clauses[-1].append(t)
-    for k, clause in enumerate(clauses):
-        head = clause[:4]
-        if any(t in g.VIEW_TRIGGERS for t in head) and len(clauses) > 1:
-            rest = [t for j, c in enumerate(clauses) if j != k for t in [*c, ","]]
-            return tuple(clause), tuple(rest[:-1])
+    """Cut a viewpoint clause off the instruction: ``(viewpoint tokens, the rest)``.
+
+    A viewpoint clause opens a clause ("facing the front of the couch, ...", "if you are
+    standing at the door ...") or follows a subordinator inside one ("the second chair
+    from the left when facing the windows"); only a subordinator or the observer ("you
+    are", "your") may come before its trigger, so "the lamp standing by the bed" is no
+    viewpoint, nor is "looking for" (searching). It ends at a comma or sentence end, or
+    where the main clause starts without one ("facing the bed choose the lamp ...",
+    "facing the stove it is the cabinet ...", "facing the sofa the table on the left"):
+    see :func:`_view_clause_end`. A clause that would leave nothing else is no viewpoint
+    ("look at the picture above the seat")."""
+    bounds = [-1, *(i for i, t in enumerate(tokens) if t in (",", ".", "?")), len(tokens)]
+    for lo, hi in itertools.pairwise(bounds):
+        start, end = lo + 1, hi
+        trigger = _view_trigger(tokens, start, end)
+        if trigger is None:
+            continue
+        first, at = trigger
+        stop = _view_clause_end(tokens, at + 1, end)
+        if stop == end and end < len(tokens):
+            stop = end + 1  # drop the clause's separator with it
+        main = (*tokens[:first], *tokens[stop:])
+        while main and main[0] in (",", "."):
+            main = main[1:]
+        if not any(t not in (",", ".", "?") for t in main):
+            continue
+        return tokens[first:stop], main
     return (), tokens
 
 
+def _view_trigger(tokens: tuple[str, ...], start: int, end: int) -> tuple[int, int] | None:
+    """(where the viewpoint clause begins, where its trigger is) in ``tokens[start:end]``."""
+    for i in range(start, end):
+        t = tokens[i]
+        if t not in g.VIEW_TRIGGERS:
+            continue
+        if i + 1 < end and tokens[i + 1] == "for":
+            return None  # "the one you are looking for"
+        before = tokens[start:i]
+        sub = max((j for j in range(start, i) if tokens[j] in g.VIEW_SUBORDINATORS), default=None)
+        if sub is not None and all(w in g.VIEW_OBSERVER for w in tokens[sub + 1 : i]):
+            return sub, i
+        if i - start < 4 and all(w in g.VIEW_OBSERVER for w in before):
+            return start, i
+        return None
+    return None
+
+
+#: Words that may continue a viewpoint clause right before a determiner ("facing *the*
+#: bed", "from *the* door", "looking at *all the* chairs").
+_VIEW_CONTINUE = frozenset({"at", "to", "toward", "towards", "from", "of", "with", "on", "in",
+                            "into", "by", "near", "across", "over", "through", "along",
+                            "onto", "behind", "and", "all", "both", "directly", "straight",
+                            "front", "up", "down", "out", "above", "below", "under", "beneath",
+                            "beside", "next", "between", "against", "around", "past",
+                            "opposite", "inside", "outside", "right", "just"})  # fmt: skip
+
+
+#: What follows "it" (or "its" for "it's") where it opens a clause: "it is the lamp".
+_IT_IS = frozenset({"is", "was", "will", "would", "should", "the", "a", "an", "on", "in"})
+
+
+def _view_clause_end(tokens: tuple[str, ...], i: int, end: int) -> int:
+    """Where a viewpoint clause whose trigger ends before ``i`` gives way to the main
+    clause (``end`` when it runs to the separator): at a word that opens a clause
+    ("it", "this", "choose", "you", ...) or at a determiner right after a noun ("facing
+    the sofa | the table ...")."""
+    for j in range(i, end):
+        t, prev = tokens[j], tokens[j - 1]
+        following = tokens[j + 1] if j + 1 < end else ""
+        if t in g.VIEW_CLAUSE_OPENERS or (t in ("it", "its") and following in _IT_IS):
+            return j
+        after_noun = not (
+            prev in _VIEW_CONTINUE or prev in g.DETERMINERS or prev in g.VIEW_TRIGGERS
+        )
+        if t in ("the", "a", "an") and after_noun and not prev.isdigit():
+            return j
+    return end
+
+
 def _viewpoint(tokens: tuple[str, ...], index: CategoryIndex) -> tuple[NounPhrase | None, bool]:
+    """The viewpoint entity of a viewpoint clause, and whether the observer stands at it
+    (standing, sitting, entering at it and not looking or facing anywhere else; standing
+    "at the foot of the bed" or "in front of the desk" faces it)."""
     if not tokens:
         return None, False
     nps = [it.np for it in read_items(tokens, index) if it.np is not None and it.np.resolved]
     named = [np for np in nps if not np.is_any]
     if not named:
         return None, False
-    standing = any(t in g.STANDING_AT for t in tokens[:3]) and "facing" not in tokens
+    standing = (
+        any(t in g.STANDING_AT for t in tokens)
+        and not any(t in g.LOOKING for t in tokens)
+        and not any(t in g.FACING_PLACES for t in tokens)
+    )
     return named[-1], standing
 
 
@@ -315,6 +393,7 @@ class _Reader:
         self.viewpoint = viewpoint
         self.target: NounPhrase | None = None
         self.subject: NounPhrase | None = None
+        self.closed = False  # a clause ended after the target: no subject any more
         self.free: NounPhrase | None = None
         self.constraints: list[Constraint] = []
         self.mods: list[Modifier] = []
@@ -329,7 +408,11 @@ class _Reader:
             if it.negation:
                 negated = True
             elif it.mod is not None:
-                self.mods.append(it.mod)
+                mod = it.mod
+                if negated and mod.kind == "place":  # "not the one in the corner"
+                    mod = replace(mod, negated=True)
+                    negated = False
+                self.mods.append(mod)
             elif it.np is not None:
                 self._noun_phrase(k, it.np)  # type: ignore[arg-type]
             elif it.cue is not None:
@@ -344,6 +427,7 @@ class _Reader:
                 continue
             elif it.separator:
                 self.free = None
+                self.closed = self.target is not None
             k += 1
         return self._finish()
 
@@ -352,7 +436,12 @@ class _Reader:
             not self.target.resolved and np.resolved and not np.is_any and not self.constraints
         ):
             self.target = np
-        elif self.target.is_any and self.target.mention is not None and self.subject is None:
+        elif (
+            self.target.is_any
+            and self.target.mention is not None
+            and self.subject is None
+            and not self.closed
+        ):
             self.subject = np
         elif k > 0 and self.items[k - 1].conjunction and not self.constraints:
             self.target = replace(self.target, coordinated=(*self.target.coordinated, np))
@@ -444,6 +533,8 @@ def _with_modifiers(np: NounPhrase, mods: list[Modifier]) -> NounPhrase:
         attributes=(*np.attributes, *(m.value for m in mods if m.kind == "attribute")),
         extremes=(*np.extremes, *((m.metric, m.direction) for m in mods if m.kind == "extreme")),
         side=np.side or next((m.value for m in mods if m.kind == "side"), None),
+        place=np.place or next((m.value for m in mods if m.kind == "place"), None),
+        place_negated=np.place_negated if np.place else any(m.negated for m in mods),
         ordinal=np.ordinal or next((m.number for m in mods if m.kind == "ordinal"), None),
     )
 
@@ -455,6 +546,8 @@ def _merge_modifiers(subject: NounPhrase, target: NounPhrase) -> NounPhrase:
         attributes=(*subject.attributes, *target.attributes),
         extremes=(*subject.extremes, *target.extremes),
         side=subject.side or target.side,
+        place=subject.place or target.place,
+        place_negated=subject.place_negated if subject.place else target.place_negated,
         ordinal=subject.ordinal or target.ordinal,
     )
 

@@ -27,6 +27,7 @@ Relations, by kind (the singular case is a referring expression that must name o
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 from causalsplat.reason._builder import SCENE, ProgramBuilder
@@ -79,10 +80,16 @@ class Planned:
 class Planner:
     """Plans noun phrases into steps of one :class:`ProgramBuilder`."""
 
-    def __init__(self, builder: ProgramBuilder, instruction: Instruction) -> None:
+    def __init__(
+        self,
+        builder: ProgramBuilder,
+        instruction: Instruction,
+        anchor_categories: Callable[[NounPhrase], tuple[str, ...] | None] | None = None,
+    ) -> None:
         self.b = builder
         self.ctx = builder.ctx
         self.instruction = instruction
+        self._anchor_categories = anchor_categories
 
     # -- candidates ----------------------------------------------------------------------
 
@@ -93,6 +100,11 @@ class Planner:
         ``categories`` when given, else those its words name; ``None`` when it names
         nothing the scene holds."""
         b = self.b
+        if categories is None and not np.categories and role == "anchor":
+            grounded = self._anchor_categories(np) if self._anchor_categories else None
+            if grounded:
+                b.note(f"anchor {np.text!r} read as {', '.join(grounded)} (by meaning)")
+                categories = grounded
         categories = np.categories if categories is None else categories
         if np.is_any and not categories:
             step = self._non_structural()
@@ -140,11 +152,13 @@ class Planner:
         if step is None:
             return None
         last = Planned(step)
-        selectors = bool(np.extremes or np.side or np.ordinal)
+        base = step
+        selectors = bool(np.extremes or np.side or np.ordinal or np.place)
         for constraint in np.constraints:
             out = self.relation(step, constraint, singular=singular, selectors=selectors)
             if out is not None:
                 step, last = out.step, out
+        step = self.place(step, np, base)
         return Planned(self.modifiers(step, np), last.anchor, last.between, last.vertical)
 
     def anchor(self, np: NounPhrase) -> int | None:
@@ -264,6 +278,22 @@ class Planner:
             return None
         pts = [self.ctx.by_id[i].centroid for i in ids]
         return [math.fsum(p[k] for p in pts) / len(pts) for k in range(3)]
+
+    def place(self, step: int, np: NounPhrase, base: int) -> int:
+        """Where in the room the phrase's entity stands, among ``step``: in the corner
+        (farthest from the scene centre, horizontally), in the middle of the room
+        (closest to the centre) or by itself (farthest from the nearest other entity of
+        ``base``, the phrase's candidates before relations); negated, every other one."""
+        b = self.b
+        if np.place is None or b.size(step) < 2 or np.side or np.ordinal:
+            return step
+        if np.place == "corner":
+            there = b.add(Op.ARGMAX, step, metric=Metric.HORIZONTAL_DISTANCE)
+        elif np.place == "centre":
+            there = b.add(Op.ARGMIN, step, metric=Metric.HORIZONTAL_DISTANCE)
+        else:
+            there = b.add(Op.ARGMAX, step, base, metric=Metric.DISTANCE)
+        return b.add(Op.DIFFERENCE, step, there) if np.place_negated else there
 
     def modifiers(self, step: int, np: NounPhrase) -> int:
         b = self.b
