@@ -252,7 +252,7 @@ class Grounder:
                     m = a.mention
                     if m is None or m.generic or a.categories or m.phrase in ROOMS:
                         continue
-                    g = self._rank("described", m.phrase, {}, fits=ANCHOR_FITS)
+                    g = self._rank("described", m.phrase, {}, fits=ANCHOR_FITS, phrase=True)
                     if g.chosen and not set(g.chosen) & set(chosen):
                         out.append((a, g))
         return tuple(out)
@@ -269,7 +269,7 @@ class Grounder:
             )
             return Grounding("named", np.text, named, np.categories, "lexicon")
         query = np.text if np.mention is None else np.mention.phrase
-        return self._rank("described", query, {}, fits=DESCRIBED)
+        return self._rank("described", query, {}, fits=DESCRIBED, phrase=True)
 
     def intent(self, ins: Instruction) -> Grounding:
         """What the need asks for (module docstring). On a scene that stores what its
@@ -378,15 +378,16 @@ class Grounder:
         scores = np.sort(self.scorer.scores(query, [self.texts[i] for i in rows]))[::-1]
         return float(scores[:2].mean())
 
-    def meaning(self, query: str) -> tuple[np.ndarray, np.ndarray]:
+    def meaning(self, query: str, *, phrase: bool = False) -> tuple[np.ndarray, np.ndarray]:
         """Per category (in ``ctx.categories`` order): the mean of its two best description
         scores (a category fits when two of its facts agree, not by one stray sentence;
-        the one score when it has a single description), and the index of the best."""
+        the one score when it has a single description), and the index of the best.
+        ``phrase``: the query is a noun phrase, not a need (no need adapter)."""
         n = len(self.ctx.categories)
         which = np.zeros(n, dtype=np.int64)
         if not self.texts or not query:
             return np.zeros(n), which
-        scores = self.scorer.scores(query, self.texts)
+        scores = self.scorer.scores(query, self.texts, need=not phrase)
         first = np.full(n, -np.inf)
         second = np.full(n, -np.inf)
         for i, (owner, s) in enumerate(zip(self.owner, scores, strict=True)):
@@ -407,9 +408,10 @@ class Grounder:
         need: bool = False,
         fits: float = FITS,
         own: dict[str, float] | None = None,
+        phrase: bool = False,
     ) -> Grounding:
         categories = self.ctx.categories
-        meaning, which = self.meaning(query)
+        meaning, which = self.meaning(query, phrase=phrase)
         cands = []
         for k, c in enumerate(categories):
             if c.lower() in UNSPECIFIC:

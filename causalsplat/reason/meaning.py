@@ -49,8 +49,9 @@ class MeaningScorer(Protocol):
 
     method: str
 
-    def scores(self, query: str, texts: Sequence[str]) -> np.ndarray:
-        """``(len(texts),)`` float64 scores."""
+    def scores(self, query: str, texts: Sequence[str], *, need: bool = True) -> np.ndarray:
+        """``(len(texts),)`` float64 scores. ``need``: the query is what an instruction
+        asks for (a need adapter applies); ``False`` for a noun phrase ("the oven")."""
         ...
 
 
@@ -62,7 +63,7 @@ class LexicalMeaning:
     def __init__(self, lexicon: Lexicon) -> None:
         self.lexicon = lexicon
 
-    def scores(self, query: str, texts: Sequence[str]) -> np.ndarray:
+    def scores(self, query: str, texts: Sequence[str], *, need: bool = True) -> np.ndarray:
         words = [t for t in tokenize(query) if t.isalnum()]
         return np.asarray(
             [lexical_score(words, " ".join(tokenize(t)), self.lexicon) for t in texts],
@@ -103,8 +104,9 @@ class QueryAdapter:
 class EmbeddingMeaning:
     """Cosine similarity of sentence embeddings (module docstring).
 
-    ``adapter``: ``"shipped"`` (default) moves the instruction's vector by the shipped need
-    adapter when the package holds one; ``None`` scores with the model's vectors alone.
+    ``adapter``: ``"shipped"`` (default) moves an instruction's vector by the shipped need
+    adapter when the package holds one (not a noun phrase's: ``scores(..., need=False)``);
+    ``None`` scores with the model's vectors alone.
     """
 
     method = "embedding"
@@ -129,11 +131,12 @@ class EmbeddingMeaning:
         rows = [self._shipped[t] if t in self._shipped else computed[t] for t in texts]
         return np.stack(rows).astype(np.float64) if rows else np.zeros((0, 384))
 
-    def scores(self, query: str, texts: Sequence[str]) -> np.ndarray:
+    def scores(self, query: str, texts: Sequence[str], *, need: bool = True) -> np.ndarray:
         if not texts:
             return np.zeros(0, dtype=np.float64)
         q = np.asarray(self.embedder.encode([query])[0], dtype=np.float64)
-        if self.adapter is not None:
+        if need and self.adapter is not None:
+            # the adapter was learned on instructions; a noun phrase keeps its own vector
             q = self.adapter(q)
         return self.vectors(texts) @ q
 
