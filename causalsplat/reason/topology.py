@@ -90,6 +90,9 @@ class Planner:
         self.ctx = builder.ctx
         self.instruction = instruction
         self._anchor_categories = anchor_categories
+        # the viewpoint's own phrase is read from the default observer ("facing the room
+        # with the sink to your right"): its sides must not refer back to the viewpoint
+        self._placing_viewpoint = False
 
     # -- candidates ----------------------------------------------------------------------
 
@@ -270,7 +273,13 @@ class Planner:
         return {"eye": centre, "target": where}
 
     def _centroid_of(self, np: NounPhrase) -> list[float] | None:
-        planned = self.plan(np, singular=False, role="viewpoint")
+        if self._placing_viewpoint:
+            return None
+        self._placing_viewpoint = True
+        try:
+            planned = self.plan(np, singular=False, role="viewpoint")
+        finally:
+            self._placing_viewpoint = False
         if planned is None:
             return None
         ids = self.b.value(planned.step)

@@ -168,3 +168,19 @@ def test_an_unnamed_anchor_is_grounded_by_meaning() -> None:
     assert grounded.anchors == ()
     grounded = reasoner.ground("the stool under the seat", ctx)
     assert all("stool" not in g.chosen for _, g in grounded.anchors)
+
+
+def test_a_viewpoint_phrase_with_its_own_side_is_read_from_the_default_observer() -> None:
+    # the viewpoint ("the room with the sink to your right") has a side of its own; it is
+    # placed as seen from the scene centre instead of from itself (this looped forever)
+    boxes: list[Box] = [
+        (1, "sink", (0.0, 0.0, 0.45), (0.8, 0.7, 0.9)),
+        (2, "towel", (-1.0, 0.5, 1.0), (0.3, 0.1, 0.5)),
+        (3, "towel", (1.0, 0.5, 1.0), (0.3, 0.1, 0.5)),
+        (4, "window", (0.0, 3.0, 1.5), (1.0, 0.1, 1.0)),
+    ]
+    text = (
+        "If you face the room with the sink to your right the towel is the first on the left "
+        "of the sink."
+    )
+    assert ask(_scene(boxes), text) in ((2,), (3,))
