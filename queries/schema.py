@@ -20,6 +20,14 @@ a ``pattern`` of at most that many characters, none of them a quote, a backslash
 control character (so a grammar compiler that copies the class, like llama.cpp's, can only
 produce valid JSON). :func:`graph_query_strict_schema` is the program's strict variant; the
 flat :func:`graph_query_schema` is unchanged.
+
+:func:`graph_query_schema_by_op` says what the flat schema cannot: a step is one of a list
+of per-op schemas (``anyOf``), each holding only the fields its op takes, with the op's
+arity as ``minItems`` / ``maxItems`` of ``inputs``; ``relate`` is two schemas, and only the
+one whose relation is seen from a viewpoint has a ``viewpoint``. Under a grammar (llama.cpp,
+OpenAI's strict mode, both accept ``anyOf``) a model then cannot write a field its op does
+not use: a small model that fills every field it is offered otherwise writes a viewpoint of
+zeros on a ``filter_category`` step.
 """
 
 from __future__ import annotations
@@ -34,7 +42,9 @@ from queries.model import (
     MAX_STEPS,
     MAX_VALUE_LENGTH,
     OP_SPECS,
+    STEP_FIELDS,
     Metric,
+    Op,
     QueryType,
 )
 
@@ -121,9 +131,58 @@ def _build() -> dict[str, Any]:
 _SCHEMA = _build()
 
 
+def _step_schema(op: Op, relations: list[RelationType] | None = None) -> dict[str, Any]:
+    """One op's step: its own fields (the rest absent), its arity on ``inputs``."""
+    spec = OP_SPECS[op]
+    shared = _SCHEMA["properties"]["steps"]["items"]["properties"]
+    inputs = copy.deepcopy(shared["inputs"])
+    inputs["minItems"], inputs["maxItems"] = spec.min_inputs, spec.max_inputs
+    props: dict[str, Any] = {
+        "op": {"type": "string", "enum": [op.value], "description": spec.signature},
+        "inputs": inputs,
+    }
+    for name in STEP_FIELDS:
+        if name in spec.required or name in spec.optional:
+            seen_from = relations is None or any(r.is_view_dependent for r in relations)
+            if name == "viewpoint" and not seen_from:
+                continue
+            props[name] = copy.deepcopy(shared[name])
+    if relations is not None:
+        props["relation"]["enum"] = [r.value for r in relations]
+    return {
+        "type": "object",
+        "properties": props,
+        "required": ["op", "inputs", *spec.required],
+        "additionalProperties": False,
+    }
+
+
+def _build_by_op() -> dict[str, Any]:
+    variants = []
+    for op in OP_SPECS:
+        if op is Op.RELATE:
+            split = [r for r in RelationType if not r.is_view_dependent]
+            variants.append(_step_schema(op, split))
+            variants.append(_step_schema(op, [r for r in RelationType if r.is_view_dependent]))
+        else:
+            variants.append(_step_schema(op))
+    schema = copy.deepcopy(_SCHEMA)
+    schema["properties"]["steps"]["items"] = {"anyOf": variants}
+    return schema
+
+
+_SCHEMA_BY_OP = _build_by_op()
+
+
 def graph_query_schema() -> dict[str, Any]:
     """A fresh copy of the flat JSON Schema of a program."""
     return copy.deepcopy(_SCHEMA)
+
+
+def graph_query_schema_by_op() -> dict[str, Any]:
+    """A fresh copy of the program's schema with one step schema per op (module
+    docstring)."""
+    return copy.deepcopy(_SCHEMA_BY_OP)
 
 
 def graph_query_strict_schema() -> dict[str, Any]:
@@ -158,6 +217,8 @@ def strict_schema(schema: dict[str, Any]) -> dict[str, Any]:
             node["pattern"] = strict_string_pattern(low, high)
     if isinstance(node.get("items"), dict):
         node["items"] = strict_schema(node["items"])
+    if isinstance(node.get("anyOf"), list):
+        node["anyOf"] = [strict_schema(sub) for sub in node["anyOf"]]
     if node.get("type") == "object":
         required = set(node.get("required", ()))
         properties: dict[str, Any] = {}

@@ -52,7 +52,7 @@ from causalsplat.reason.offline import scored_candidates
 from causalsplat.reason.reasoner import Reasoner
 from graph_store.types import RelationType
 from queries import OP_SPECS, GraphQuery, Op, QueryError, QueryValidationError
-from queries.schema import graph_query_schema, strict_schema
+from queries.schema import graph_query_schema_by_op, strict_schema
 from queries.semantics import normalise_text, split_attribute
 
 if TYPE_CHECKING:
@@ -114,15 +114,18 @@ def reply_schema() -> dict[str, Any]:
 def reply_program_schema() -> dict[str, Any]:
     """The program's strict-mode schema with the reply's bounds (:data:`MAX_REPLY_STEPS`,
     :data:`MAX_REPLY_VALUE_LENGTH`, :data:`MAX_REPLY_INPUTS`)."""
-    flat = graph_query_schema()
-    flat.pop("title", None)
-    props = flat["properties"]
+    schema = graph_query_schema_by_op()
+    schema.pop("title", None)
+    props = schema["properties"]
     props["steps"]["maxItems"] = MAX_REPLY_STEPS
     props["answer_step"]["maximum"] = MAX_REPLY_STEPS - 1
-    step = props["steps"]["items"]["properties"]
-    step["value"]["maxLength"] = MAX_REPLY_VALUE_LENGTH
-    step["inputs"]["maxItems"] = MAX_REPLY_INPUTS
-    return strict_schema(flat)
+    for step in props["steps"]["items"]["anyOf"]:
+        fields = step["properties"]
+        if "value" in fields:
+            fields["value"]["maxLength"] = MAX_REPLY_VALUE_LENGTH
+        inputs = fields["inputs"]
+        inputs["maxItems"] = min(inputs["maxItems"], MAX_REPLY_INPUTS)
+    return strict_schema(schema)
 
 
 def response_format() -> dict[str, Any]:

@@ -11,10 +11,19 @@ from typing import Any
 import pytest
 from hypothesis import given, settings
 
+from graph_store.types import RelationType
 from queries import GraphQuery, QueryValidationError
-from queries.model import MAX_K, MAX_SET_INPUTS, MAX_STEPS, MAX_VALUE_LENGTH, STEP_FIELDS
+from queries.model import (
+    MAX_K,
+    MAX_SET_INPUTS,
+    MAX_STEPS,
+    MAX_VALUE_LENGTH,
+    OP_SPECS,
+    STEP_FIELDS,
+)
 from queries.schema import (
     graph_query_schema,
+    graph_query_schema_by_op,
     graph_query_strict_schema,
     strict_schema,
     strict_string_pattern,
@@ -171,3 +180,66 @@ def test_more_steps_than_the_schema_allows_are_refused() -> None:
     doc["steps"] = doc["steps"][:MAX_STEPS]
     assert conforms_strict(doc, graph_query_strict_schema())
     assert len(GraphQuery.parse(doc).steps) == MAX_STEPS
+
+
+def by_op_form(program: GraphQuery) -> dict[str, Any]:
+    """The program as a reply under the per-op schema writes it: each step with its op's
+    fields only (nulls for the unset optional ones)."""
+    strict = strict_schema(graph_query_schema_by_op())
+    variants = strict["properties"]["steps"]["items"]["anyOf"]
+    doc = program.to_dict()
+    steps = []
+    for s in doc["steps"]:
+        step = {"op": s["op"], "inputs": s.get("inputs", []), **{f: s.get(f) for f in STEP_FIELDS}}
+        fields = next(
+            v["properties"]
+            for v in variants
+            if v["properties"]["op"]["enum"] == [s["op"]]
+            and ("relation" not in v["properties"]
+                 or s.get("relation") in v["properties"]["relation"]["enum"])
+        )  # fmt: skip
+        steps.append({k: step[k] for k in fields})
+    doc["steps"] = steps
+    return doc
+
+
+def test_the_per_op_schema_passes_strict_mode_rules() -> None:
+    strict = strict_schema(graph_query_schema_by_op())
+    assert strict_schema_problems(strict) == []
+    variants = strict["properties"]["steps"]["items"]["anyOf"]
+    assert len(variants) == len(OP_SPECS) + 1  # relate: with and without a viewpoint
+    for v in variants:
+        fields = v["properties"]
+        spec = OP_SPECS[fields["op"]["enum"][0]]
+        assert (fields["inputs"]["minItems"], fields["inputs"]["maxItems"]) == (
+            spec.min_inputs, spec.max_inputs)  # fmt: skip
+        assert set(fields) <= {"op", "inputs", *spec.required, *spec.optional}
+        if "viewpoint" in fields:  # only where the relation is seen from somewhere
+            assert all(RelationType(r).is_view_dependent for r in fields["relation"]["enum"])
+
+
+@settings(max_examples=150, deadline=None)
+@given(programs())
+def test_every_program_fits_the_per_op_schema_and_reads_back(program: GraphQuery) -> None:
+    doc = by_op_form(program)
+    strict = strict_schema(graph_query_schema_by_op())
+    assert conforms_strict(doc, strict) == _plain(program)
+    assert GraphQuery.parse(doc) == program
+
+
+def test_the_per_op_schema_has_no_room_for_a_field_the_op_does_not_take() -> None:
+    strict = strict_schema(graph_query_schema_by_op())
+    step = {"op": "filter_category", "inputs": [0], "value": "sink"}
+    doc = {"query_type": "intrinsic", "steps": [{"op": "scene", "inputs": []}, step],
+           "answer_step": 1}  # fmt: skip
+    assert conforms_strict(doc, strict)
+    zeros = {"eye": [0.0, 0.0, 0.0], "target": [0.0, 0.0, 0.0]}
+    doc["steps"][1] = {**step, "viewpoint": zeros}
+    assert not conforms_strict(doc, strict)
+    near = {"op": "relate", "inputs": [0, 0], "relation": "near", "viewpoint": None}
+    doc["steps"][1] = near
+    assert not conforms_strict(doc, strict)  # near is not seen from a viewpoint
+    doc["steps"][1] = {**near, "relation": "left_of"}
+    assert conforms_strict(doc, strict)
+    doc["steps"][1] = {"op": "filter_category", "inputs": [], "value": "sink"}
+    assert not conforms_strict(doc, strict)  # its one input is required

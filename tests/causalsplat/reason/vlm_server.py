@@ -99,7 +99,9 @@ def filled(schema: dict[str, Any]) -> Any:
     """The largest value ``schema`` admits: strings of 3-letter words (about a token per 4
     characters, as real tokenizers go), numbers with 16 digits, arrays at ``maxItems``."""
     if "anyOf" in schema:
-        return filled(next(s for s in schema["anyOf"] if s.get("type") != "null"))
+        # the longest alternative (a step schema per op: the op with the most fields)
+        values = [filled(s) for s in schema["anyOf"] if s.get("type") != "null"]
+        return max(values, key=lambda v: len(json.dumps(v)))
     kind = schema.get("type")
     if kind == "object":
         return {name: filled(sub) for name, sub in schema.get("properties", {}).items()}
