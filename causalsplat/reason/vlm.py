@@ -276,7 +276,7 @@ class VLMReasoner:
             first = exc
             messages = [
                 *messages,
-                {"role": "assistant", "content": reply.content},
+                {"role": "assistant", "content": compact_reply(reply.content)},
                 {"role": "user", "content": _template("retry.txt").substitute(error=str(exc))},
             ]
         second = self.client.complete(messages, response_format=fmt, max_tokens=budget)
@@ -364,6 +364,16 @@ def _check_names(program: GraphQuery, ctx: SceneContext) -> None:
             raise VLMReplyError(
                 f"step {i}: affordance {value!r} is not in the scene", reason="unknown_name"
             )
+
+
+def compact_reply(content: str) -> str:
+    """A rejected reply as the retry repeats it: re-serialised without indentation when it
+    is JSON (a small model writes two-space indented JSON, a third of its tokens
+    whitespace, and the retry must fit the model's context), as written otherwise."""
+    try:
+        return json.dumps(json.loads(_strip_fences(content)), ensure_ascii=False)
+    except (json.JSONDecodeError, RecursionError):
+        return content
 
 
 def _strip_fences(content: str) -> str:

@@ -428,3 +428,21 @@ def test_invalid_max_tokens_variable_is_one_line(
     assert "CAUSALSPLAT_VLM_MAX_TOKENS must be a positive integer, got 'lots'" in result.stderr
     with pytest.raises(VLMConfigError, match="positive"):
         VLMConfig(max_tokens=0)
+
+
+def test_the_retry_repeats_a_rejected_reply_without_its_indentation(room: SceneContext) -> None:
+    # SmolLM2 writes two-space indented JSON; repeated as written, a retry on a large
+    # scene overflowed its 8,192-token context (docs/benchmarks.md)
+    wrong = {"program": PROGRAM, "target_ids": [999], "explanation": "a chair"}
+    with ScriptedServer() as server:
+        server.script.extend([Reply(json.dumps(wrong, indent=2)), Reply(VALID)])
+        answer = reasoner(server).answer(TEXT, room)
+    assert answer.reasoner == "vlm" and answer.entity_ids == (6,)
+    repeated = server.requests[1]["body"]["messages"][-2]
+    assert repeated["role"] == "assistant"
+    assert repeated["content"] == json.dumps(wrong) and "\n" not in repeated["content"]
+    # a reply that is not JSON goes back as it was written
+    with ScriptedServer() as server:
+        server.script.extend([Reply("I think it is the chair.\n"), Reply(VALID)])
+        reasoner(server).answer(TEXT, room)
+    assert server.requests[1]["body"]["messages"][-2]["content"] == "I think it is the chair.\n"
