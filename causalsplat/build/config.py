@@ -51,12 +51,16 @@ class BuildConfig:
         labeler: who names the entities: ``masks`` (the vote of the mask labels; masks
             without labels give ``object``) or ``vlm`` (an OpenAI-compatible server, set
             by ``CAUSALSPLAT_VLM_*``, looks at each entity's best mask crop).
+        allow_distortion: read COLMAP cameras with lens distortion as pinhole cameras (a
+            build warning) instead of refusing them; undistorting the images first
+            (``colmap image_undistorter``) is the exact way.
     """
 
     max_views: int | None = None
     units: str = "m"
     up_axis: str = "z"
     labeler: str = "masks"
+    allow_distortion: bool = False
     raster: RasterConfig = dataclasses.field(default_factory=RasterConfig)
     field: FieldConfig = dataclasses.field(default_factory=FieldConfig)
     instances: InstanceConfig = dataclasses.field(default_factory=InstanceConfig)
@@ -72,12 +76,17 @@ class BuildConfig:
             raise BuildConfigError(f"up_axis={self.up_axis!r} must be 'x', 'y' or 'z'")
         if self.labeler not in ("masks", "vlm"):
             raise BuildConfigError(f"labeler={self.labeler!r} must be 'masks' or 'vlm'")
+        if not isinstance(self.allow_distortion, bool):
+            raise BuildConfigError(
+                f"allow_distortion={self.allow_distortion!r} must be true or false"
+            )
         if not isinstance(self.units, str) or not self.units:
             raise BuildConfigError(f"units={self.units!r} must be a non-empty string")
 
     def to_json(self) -> dict[str, Any]:
         out: dict[str, Any] = {"max_views": self.max_views, "units": self.units,
-                               "up_axis": self.up_axis, "labeler": self.labeler}  # fmt: skip
+                               "up_axis": self.up_axis, "labeler": self.labeler,
+                               "allow_distortion": self.allow_distortion}  # fmt: skip
         for name in _SECTIONS:
             out[name] = _section_json(getattr(self, name))
         return out

@@ -27,6 +27,7 @@ import numpy as np
 
 from causalsplat.errors import InputFormatError
 from causalsplat.io import read_colmap_model, read_gaussian_ply, read_transforms_json
+from causalsplat.io.errors import ColmapDistortionError
 from causalsplat.io.types import Camera, GaussianScene
 from causalsplat.masks.files import read_masks
 from causalsplat.masks.types import MaskSet
@@ -54,6 +55,8 @@ class SceneFolder:
         gt_labels: (N,) int32 GT entity id per Gaussian (-1 none), or ``None``.
         objects_path, queries_path: ``objects.json`` / ``queries.json``, or ``None``.
         skipped_views: stems of the cameras without a mask file, in camera order.
+        distorted: the COLMAP cameras whose lens distortion was dropped (read with
+            ``allow_distortion=True``), described; empty otherwise.
     """
 
     root: Path
@@ -66,6 +69,7 @@ class SceneFolder:
     objects_path: Path | None
     queries_path: Path | None
     skipped_views: tuple[str, ...]
+    distorted: tuple[str, ...] = ()
 
     def input_hashes(self) -> dict[str, str]:
         """SHA-256 hex digest of every input file, keyed by its POSIX path relative to root.
@@ -99,7 +103,9 @@ def view_stem(camera_name: str) -> str:
     return PurePosixPath(camera_name.replace("\\", "/")).stem
 
 
-def read_scene_folder(path: str | Path, *, max_views: int | None = None) -> SceneFolder:
+def read_scene_folder(
+    path: str | Path, *, max_views: int | None = None, allow_distortion: bool = False
+) -> SceneFolder:
     """Read a scene folder (module docstring).
 
     Args:
@@ -107,6 +113,8 @@ def read_scene_folder(path: str | Path, *, max_views: int | None = None) -> Scen
         max_views: keep at most this many of the views that have masks, evenly spaced over
             the camera order, first and last included (deterministic; for quick builds).
             Only the kept views' mask files are read. ``None`` keeps all.
+        allow_distortion: read COLMAP cameras with lens distortion as pinhole cameras
+            (:attr:`SceneFolder.distorted` names them) instead of refusing them.
 
     Raises :class:`SceneFolderFormatError` for a missing folder, PLY, cameras or ``masks/``,
     no camera with a mask file, a mask file matching no camera, two cameras with one stem,
@@ -123,7 +131,7 @@ def read_scene_folder(path: str | Path, *, max_views: int | None = None) -> Scen
         gaussians = read_gaussian_ply(ply_path).scene
     except (InputFormatError, OSError) as exc:
         raise SceneFolderFormatError(f"scene folder {root}: bad PLY: {exc}") from exc
-    cameras_path, all_cameras = read_cameras(root)
+    cameras_path, all_cameras, distorted = _read_cameras(root, allow_distortion)
     with_masks, skipped = _match_masks(root, all_cameras)
     if max_views is not None:
         with_masks = [with_masks[i] for i in _spaced(len(with_masks), max_views)]
@@ -140,6 +148,7 @@ def read_scene_folder(path: str | Path, *, max_views: int | None = None) -> Scen
         objects_path=objects if objects.is_file() else None,
         queries_path=queries if queries.is_file() else None,
         skipped_views=skipped,
+        distorted=distorted,
     )
 
 
@@ -163,8 +172,16 @@ def find_ply(root: Path) -> Path:
     return max(found)[1]
 
 
-def read_cameras(root: Path) -> tuple[Path, tuple[Camera, ...]]:
-    """The folder's camera source (``sparse/0`` or ``transforms.json``) and its cameras."""
+def read_cameras(root: Path, *, allow_distortion: bool = False) -> tuple[Path, tuple[Camera, ...]]:
+    """The folder's camera source (``sparse/0`` or ``transforms.json``) and its cameras
+    (COLMAP cameras with lens distortion refused unless ``allow_distortion``)."""
+    source, cameras, _ = _read_cameras(root, allow_distortion)
+    return source, cameras
+
+
+def _read_cameras(
+    root: Path, allow_distortion: bool
+) -> tuple[Path, tuple[Camera, ...], tuple[str, ...]]:
     sparse, transforms = root / "sparse" / "0", root / "transforms.json"
     if not sparse.is_dir() and not transforms.is_file():
         raise SceneFolderFormatError(
@@ -172,18 +189,25 @@ def read_cameras(root: Path) -> tuple[Path, tuple[Camera, ...]]:
         )
     source = sparse if sparse.is_dir() else transforms
     try:
-        is_colmap = source == sparse
-        cameras = read_colmap_model(sparse).cameras if is_colmap else read_transforms_json(source)
+        distorted: tuple[str, ...] = ()
+        if source == sparse:
+            model = read_colmap_model(sparse, allow_distortion=allow_distortion)
+            cameras, distorted = model.cameras, model.distorted
+        else:
+            cameras = read_transforms_json(source)
+    except ColmapDistortionError:
+        raise  # its message names the file and the way out
     except (InputFormatError, OSError) as exc:
         raise SceneFolderFormatError(f"scene folder {root}: bad cameras: {exc}") from exc
     if not cameras:
         raise SceneFolderFormatError(f"{source}: holds no cameras")
-    return source, cameras
+    return source, cameras, distorted
 
 
 def camera_sizes(root: str | Path) -> dict[str, tuple[int, int]]:
-    """``(height, width)`` of every camera of a scene folder, by image stem."""
-    _source, cameras = read_cameras(Path(root))
+    """``(height, width)`` of every camera of a scene folder, by image stem (a camera's
+    lens distortion does not change its size)."""
+    _source, cameras = read_cameras(Path(root), allow_distortion=True)
     return {view_stem(c.name): (int(c.height), int(c.width)) for c in cameras}
 
 

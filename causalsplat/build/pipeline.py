@@ -166,7 +166,9 @@ def build_scene(
     cache = StageCache(default_cache_dir() if cache_dir is True else (cache_dir or None))
     stages = _Stages()
     with stages.stage("load"):
-        folder = read_scene_folder(path, max_views=config.max_views)
+        folder = read_scene_folder(
+            path, max_views=config.max_views, allow_distortion=config.allow_distortion
+        )
         hashes = {k: v for k, v in folder.input_hashes().items() if not k.startswith("gt/")}
     field_key = cache_key(CACHE_VERSION, hashes, config.to_json()["raster"],
                           config.to_json()["field"])  # fmt: skip
@@ -201,6 +203,12 @@ def build_scene(
     if folder.gt_labels is not None:
         quality = instance_quality(assignment.labels, folder.gt_labels)
     warnings = []
+    if folder.distorted:
+        warnings.append(
+            f"lens distortion dropped (--allow-distortion): {'; '.join(folder.distorted)};"
+            " masks sit where a pinhole camera would put them, off by the distortion;"
+            " undistort the images first (colmap image_undistorter) for exact geometry"
+        )
     if labeler is None and all(m.labels is None for m in folder.masks):
         warnings.append(
             "the masks carry no labels and no labeller was given: every entity is stored as"

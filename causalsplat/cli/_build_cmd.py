@@ -45,6 +45,12 @@ from causalsplat.cli._app import cli, db_option, echo_json, json_option
     help="Who names the entities: the mask labels' vote (default) or a VLM server "
     "($CAUSALSPLAT_VLM_BASE_URL, $CAUSALSPLAT_VLM_MODEL) looking at each entity's crop.",
 )
+@click.option(
+    "--allow-distortion",
+    is_flag=True,
+    help="Read COLMAP cameras with lens distortion as pinhole cameras (with a warning) "
+    "instead of refusing them; undistorting first (colmap image_undistorter) is exact.",
+)
 @db_option
 @json_option
 def build(
@@ -56,6 +62,7 @@ def build(
     cache_dir: Path | None,
     no_cache: bool,
     labeler: str | None,
+    allow_distortion: bool,
     db_url: str,
     as_json: bool,
 ) -> None:
@@ -75,6 +82,8 @@ def build(
         config = dataclasses.replace(config, max_views=max_views)
     if labeler is not None:
         config = dataclasses.replace(config, labeler=labeler)
+    if allow_distortion:
+        config = dataclasses.replace(config, allow_distortion=True)
     cache: Path | bool = False if no_cache else (cache_dir or True)
     with open_store(db_url) as store:
         scene = store.build(

@@ -87,7 +87,8 @@ def export_answer_masks(
     scene = read_gaussian_ply(ply_path).scene
     ids = _labels_for(graph, labels, scene.n)
     wanted = np.isin(ids, np.fromiter(entity_ids, dtype=np.int64)).astype(np.int64)
-    _, cameras = read_cameras(root)
+    # the build already decided about lens distortion (--allow-distortion)
+    _, cameras = read_cameras(root, allow_distortion=True)
     keep = None if views is None else set(views)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

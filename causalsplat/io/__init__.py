@@ -6,6 +6,7 @@
 
 from causalsplat.io.colmap import ColmapModel, ColmapPoints, read_colmap_model, write_colmap_model
 from causalsplat.io.errors import (
+    ColmapDistortionError,
     ColmapFormatError,
     InvalidSceneError,
     PlyFormatError,
@@ -18,6 +19,7 @@ from causalsplat.io.types import SH_C0, Camera, GaussianScene, Projection
 __all__ = [
     "SH_C0",
     "Camera",
+    "ColmapDistortionError",
     "ColmapFormatError",
     "ColmapModel",
     "ColmapPoints",

@@ -6,9 +6,13 @@ half-integers: exactly the :class:`~causalsplat.io.types.Camera` convention, so 
 taken as they are.
 
 Camera models: ``SIMPLE_PINHOLE`` and ``PINHOLE`` are read exactly. ``SIMPLE_RADIAL``,
-``RADIAL``, ``OPENCV`` and ``FULL_OPENCV`` are read as pinhole cameras with their
-**distortion coefficients ignored** (undistort the images first for exact geometry, e.g.
-``colmap image_undistorter``). Fisheye and other models raise :class:`ColmapFormatError`.
+``RADIAL``, ``OPENCV`` and ``FULL_OPENCV`` are read exactly when their distortion
+coefficients are all zero. With a non-zero coefficient the model is refused
+(:class:`~causalsplat.io.errors.ColmapDistortionError`: masks would land where the lens did
+not put them; undistort the images first, ``colmap image_undistorter``), unless
+``allow_distortion=True``: then the camera is read as a pinhole one, its distortion
+dropped, and :attr:`ColmapModel.distorted` names it. Fisheye and other models raise
+:class:`ColmapFormatError`.
 2D keypoints and point tracks are not kept.
 """
 
@@ -21,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from causalsplat.io._geometry import quat_to_rotmat, rotmat_to_quat
-from causalsplat.io.errors import ColmapFormatError, InvalidSceneError
+from causalsplat.io.errors import ColmapDistortionError, ColmapFormatError, InvalidSceneError
 from causalsplat.io.types import Camera
 
 #: COLMAP camera model id -> (name, number of parameters).
@@ -41,6 +45,9 @@ CAMERA_MODELS: dict[int, tuple[str, int]] = {
 MODEL_IDS = {name: mid for mid, (name, _) in CAMERA_MODELS.items()}
 _SINGLE_FOCAL = {"SIMPLE_PINHOLE", "SIMPLE_RADIAL", "RADIAL"}
 _TWO_FOCAL = {"PINHOLE", "OPENCV", "FULL_OPENCV"}
+#: Where a pinhole-family model's distortion coefficients start in its parameters.
+_DISTORTION_FROM = {"SIMPLE_PINHOLE": 3, "PINHOLE": 4, "SIMPLE_RADIAL": 3, "RADIAL": 3,
+                    "OPENCV": 4, "FULL_OPENCV": 4}  # fmt: skip
 
 
 @dataclass(frozen=True, slots=True)
@@ -95,15 +102,28 @@ class ColmapModel:
             name is the image NAME.
         image_ids: the COLMAP image id of each camera.
         points: the sparse points (empty when ``points3D`` is absent).
+        distorted: ``"camera <id> (<MODEL>, largest coefficient <c>)"`` for each camera
+            whose distortion was dropped (only with ``allow_distortion=True``).
     """
 
     cameras: tuple[Camera, ...]
     image_ids: tuple[int, ...]
     points: ColmapPoints
+    distorted: tuple[str, ...] = ()
+
+
+def distortion(cam: RawCamera) -> float:
+    """The largest absolute distortion coefficient of a pinhole-family camera (0: none)."""
+    start = _DISTORTION_FROM.get(cam.model, len(cam.params))
+    return max((abs(c) for c in cam.params[start:]), default=0.0)
+
+
+def describe_distortion(cam: RawCamera) -> str:
+    return f"camera {cam.camera_id} ({cam.model}, largest coefficient {distortion(cam):.3g})"
 
 
 def pinhole_intrinsics(cam: RawCamera, source: Path) -> tuple[float, float, float, float]:
-    """(fx, fy, cx, cy) of a COLMAP camera; distortion parameters are ignored."""
+    """(fx, fy, cx, cy) of a COLMAP camera; distortion parameters are not read here."""
     p = cam.params
     if cam.model in _SINGLE_FOCAL:
         return p[0], p[0], p[1], p[2]
@@ -115,10 +135,27 @@ def pinhole_intrinsics(cam: RawCamera, source: Path) -> tuple[float, float, floa
     )
 
 
+def check_distortion(
+    cameras: dict[int, RawCamera], source: Path, *, allow_distortion: bool = False
+) -> tuple[str, ...]:
+    """The cameras with non-zero distortion (described); raises
+    :class:`ColmapDistortionError` for the first of them unless ``allow_distortion``."""
+    distorted = [cam for _, cam in sorted(cameras.items()) if distortion(cam) != 0.0]
+    if distorted and not allow_distortion:
+        more = f" (and {len(distorted) - 1} more)" if len(distorted) > 1 else ""
+        raise ColmapDistortionError(
+            f"{source}: {describe_distortion(distorted[0])}{more} has lens distortion, which "
+            "would put the masks where the lens did not; undistort the images first (colmap "
+            "image_undistorter) or pass --allow-distortion to read it as a pinhole camera"
+        )
+    return tuple(describe_distortion(cam) for cam in distorted)
+
+
 def to_cameras(
     cameras: dict[int, RawCamera], images: list[RawImage], source: Path
 ) -> tuple[tuple[Camera, ...], tuple[int, ...]]:
-    """Build :class:`Camera` objects from raw records, ordered by image id."""
+    """Build :class:`Camera` objects from raw records, ordered by image id (distortion
+    coefficients are not read: see :func:`check_distortion`)."""
     out, ids = [], []
     for img in sorted(images, key=lambda im: im.image_id):
         cam = cameras.get(img.camera_id)
@@ -149,12 +186,16 @@ def _find(path: Path, stem: str) -> tuple[Path, bool] | None:
     return None
 
 
-def read_colmap_model(path: str | os.PathLike[str]) -> ColmapModel:
+def read_colmap_model(
+    path: str | os.PathLike[str], *, allow_distortion: bool = False
+) -> ColmapModel:
     """Read a COLMAP sparse model folder (e.g. ``sparse/0``), binary or text.
 
     Binary files (``*.bin``) are preferred when both forms are present. ``cameras`` and
     ``images`` are required, ``points3D`` is optional. Raises :class:`ColmapFormatError`
-    naming the file for missing, truncated or malformed files and unsupported models.
+    naming the file for missing, truncated or malformed files and unsupported models, and
+    :class:`ColmapDistortionError` for a camera with lens distortion unless
+    ``allow_distortion`` (module docstring).
     """
     from causalsplat.io import _colmap_binary, _colmap_text
 
@@ -166,13 +207,14 @@ def read_colmap_model(path: str | os.PathLike[str]) -> ColmapModel:
     cam_file, cam_bin = found["cameras"]  # type: ignore[misc]
     img_file, img_bin = found["images"]  # type: ignore[misc]
     cameras = (_colmap_binary if cam_bin else _colmap_text).read_cameras(cam_file)
+    distorted = check_distortion(cameras, cam_file, allow_distortion=allow_distortion)
     images = (_colmap_binary if img_bin else _colmap_text).read_images(img_file)
     points = ColmapPoints.empty()
     if found["points3D"] is not None:
         pt_file, pt_bin = found["points3D"]
         points = (_colmap_binary if pt_bin else _colmap_text).read_points(pt_file)
     cams, ids = to_cameras(cameras, images, img_file)
-    return ColmapModel(cameras=cams, image_ids=ids, points=points)
+    return ColmapModel(cameras=cams, image_ids=ids, points=points, distorted=distorted)
 
 
 def write_colmap_model(

@@ -22,5 +22,10 @@ class ColmapFormatError(InputFormatError):
     """A COLMAP sparse model (text or binary) is malformed, truncated or unsupported."""
 
 
+class ColmapDistortionError(ColmapFormatError):
+    """A COLMAP camera has non-zero lens distortion and the reader was not allowed to drop
+    it (``allow_distortion=False``)."""
+
+
 class TransformsFormatError(InputFormatError):
     """A nerfstudio / instant-ngp ``transforms.json`` is malformed."""

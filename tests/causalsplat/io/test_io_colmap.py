@@ -89,7 +89,8 @@ def test_known_pose_projects_known_points(tmp_path: Path) -> None:
     (tmp_path / "images.txt").write_text(
         f"# header\n1 {s} 0 0 {s} 1 2 3 1 a b.png\n10 20 -1\n2 1 0 0 0 0 0 0 2 c.png\n\n"
     )
-    model = read_colmap_model(tmp_path)
+    model = read_colmap_model(tmp_path, allow_distortion=True)
+    assert model.distorted == ("camera 2 (SIMPLE_RADIAL, largest coefficient 0.1)",)
     assert [c.name for c in model.cameras] == ["a b.png", "c.png"]
     cam = model.cameras[0]
     # x_cam = R x_world + t with R = rot_z(90°): (x, y, z) -> (-y, x, z).
@@ -99,7 +100,7 @@ def test_known_pose_projects_known_points(tmp_path: Path) -> None:
     np.testing.assert_allclose(
         cam.project(world).pixels[0], [50 * 0 / 5 + 40, 60 * 4 / 5 + 30], atol=1e-12
     )
-    radial = model.cameras[1]  # distortion k ignored: a pinhole camera with f = 70
+    radial = model.cameras[1]  # distortion k dropped: a pinhole camera with f = 70
     assert (radial.fx, radial.fy, radial.cx, radial.cy) == (70, 70, 50, 40)
     assert model.points.ids.shape == (0,)
 
