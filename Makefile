@@ -6,7 +6,7 @@ PY := $(VENV)/bin/python
 PIP := $(PY) -m pip install --constraint constraints.txt
 EXTRAS ?= field,embed,vlm,postgres,dev
 
-.PHONY: venv demo test lint typecheck pytest bench bench-store db-check vlm-check clean
+.PHONY: venv demo test lint typecheck pytest bench bench-store db-check wheel-check vlm-check clean
 
 comma := ,
 STAMP := $(VENV)/.stamp-$(subst $(comma),_,$(EXTRAS))
@@ -36,6 +36,10 @@ pytest: $(STAMP)
 
 db-check: $(STAMP)
 	bash .ci/db-check
+
+# The wheel in a fresh virtual environment, used from outside the repository (.ci/wheel-check).
+wheel-check: $(STAMP)
+	DEV_PY=$(abspath $(PY)) bash .ci/wheel-check
 
 bench-store: $(STAMP)
 	$(PY) -m causalsplat bench --only store

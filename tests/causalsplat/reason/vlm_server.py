@@ -301,3 +301,40 @@ def _completion(body: dict[str, Any], content: str, finish_reason: str) -> dict[
         ],
         "usage": {"prompt_tokens": 1, "completion_tokens": used, "total_tokens": used + 1},
     }
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Serve one reply to every request until killed, as its own process (``make
+    wheel-check`` points an installed wheel at it): ``python -m
+    tests.causalsplat.reason.vlm_server REPLY_FILE PORT_FILE`` writes the base URL to
+    PORT_FILE once listening."""
+    import argparse
+    import signal
+    from pathlib import Path
+
+    parser = argparse.ArgumentParser(prog="python -m tests.causalsplat.reason.vlm_server")
+    parser.add_argument("reply_file", type=Path, help="the reply's content (a JSON document)")
+    parser.add_argument("url_file", type=Path, help="where to write the base URL")
+    args = parser.parse_args(argv)
+    content = args.reply_file.read_text(encoding="utf-8")
+
+    class Forever(deque):  # type: ignore[type-arg]
+        """A script that never runs out: the same reply every time."""
+
+        def popleft(self) -> Reply:
+            return Reply(content)
+
+        def __bool__(self) -> bool:
+            return True
+
+    stop = threading.Event()
+    signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    with ScriptedServer() as server:
+        server.script = Forever()
+        args.url_file.write_text(server.base_url, encoding="utf-8")
+        stop.wait()
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
