@@ -54,6 +54,11 @@ class BuildConfig:
         allow_distortion: read COLMAP cameras with lens distortion as pinhole cameras (a
             build warning) instead of refusing them; undistorting the images first
             (``colmap image_undistorter``) is the exact way.
+        min_seen: the least share of Gaussians the views must see, and
+        min_masked: the least share of mask pixels that must fall next to a projected
+            Gaussian, for the PLY and the cameras to count as one capture
+            (:mod:`causalsplat.build.coverage`); a build below either is refused. 0 turns
+            a check off.
     """
 
     max_views: int | None = None
@@ -61,6 +66,8 @@ class BuildConfig:
     up_axis: str = "z"
     labeler: str = "masks"
     allow_distortion: bool = False
+    min_seen: float = 0.05
+    min_masked: float = 0.5
     raster: RasterConfig = dataclasses.field(default_factory=RasterConfig)
     field: FieldConfig = dataclasses.field(default_factory=FieldConfig)
     instances: InstanceConfig = dataclasses.field(default_factory=InstanceConfig)
@@ -80,13 +87,23 @@ class BuildConfig:
             raise BuildConfigError(
                 f"allow_distortion={self.allow_distortion!r} must be true or false"
             )
+        for name in ("min_seen", "min_masked"):
+            value = getattr(self, name)
+            if (
+                isinstance(value, bool)
+                or not isinstance(value, int | float)
+                or not (0.0 <= value <= 1.0)
+            ):
+                raise BuildConfigError(f"{name} must be in [0, 1], got {value!r}")
         if not isinstance(self.units, str) or not self.units:
             raise BuildConfigError(f"units={self.units!r} must be a non-empty string")
 
     def to_json(self) -> dict[str, Any]:
-        out: dict[str, Any] = {"max_views": self.max_views, "units": self.units,
-                               "up_axis": self.up_axis, "labeler": self.labeler,
-                               "allow_distortion": self.allow_distortion}  # fmt: skip
+        out: dict[str, Any] = {
+            name: getattr(self, name)
+            for name in ("max_views", "units", "up_axis", "labeler", "allow_distortion",
+                         "min_seen", "min_masked")
+        }  # fmt: skip
         for name in _SECTIONS:
             out[name] = _section_json(getattr(self, name))
         return out

@@ -30,7 +30,8 @@ import numpy as np
 
 from causalsplat.build.cache import StageCache, cache_key, default_cache_dir, pack_csr, unpack_csr
 from causalsplat.build.config import BuildConfig
-from causalsplat.build.errors import BuildError
+from causalsplat.build.coverage import Coverage, measure_coverage
+from causalsplat.build.errors import BuildError, CoverageError
 from causalsplat.build.folder import SceneFolder, read_scene_folder
 from causalsplat.field import (
     FeatureField,
@@ -85,6 +86,7 @@ class BuildResult:
     n_gaussians: int
     n_views: int
     warnings: tuple[str, ...] = ()
+    coverage: Coverage | None = None
 
     def to_json(self) -> dict[str, Any]:
         g = self.graph
@@ -111,6 +113,7 @@ class BuildResult:
             "peak_rss_mib": round(max((s.peak_rss_mib for s in self.stages), default=0.0), 1),
             "quality": None if self.quality is None else self.quality.to_json(),
             "warnings": list(self.warnings),
+            "coverage": None if self.coverage is None else self.coverage.to_json(),
         }
 
 
@@ -170,6 +173,7 @@ def build_scene(
             path, max_views=config.max_views, allow_distortion=config.allow_distortion
         )
         hashes = {k: v for k, v in folder.input_hashes().items() if not k.startswith("gt/")}
+        coverage = check_coverage(folder, config)
     field_key = cache_key(CACHE_VERSION, hashes, config.to_json()["raster"],
                           config.to_json()["field"])  # fmt: skip
     field, evidence = _field_stage(folder, config, cache, field_key, stages, progress)
@@ -224,7 +228,28 @@ def build_scene(
         n_gaussians=folder.gaussians.n,
         n_views=len(folder.cameras),
         warnings=tuple(warnings),
+        coverage=coverage,
     )
+
+
+def check_coverage(folder: SceneFolder, config: BuildConfig) -> Coverage:
+    """Measure how the folder's cameras and masks meet its Gaussians; raise
+    :class:`CoverageError` when a share is below the config's threshold."""
+    coverage = measure_coverage(
+        folder.gaussians.means, folder.cameras, folder.masks, near=config.raster.near
+    )
+    if coverage.seen < config.min_seen or coverage.masked < config.min_masked:
+        raise CoverageError(
+            f"{folder.root}: the PLY and the cameras do not look like one capture: the "
+            f"{len(folder.cameras)} views see {coverage.seen:.1%} of the Gaussians (at least "
+            f"{config.min_seen:.0%} needed) and {coverage.masked:.1%} of the mask pixels fall "
+            f"where a Gaussian projects (at least {config.min_masked:.0%} needed); check that "
+            "the cameras and masks come from the capture the PLY was trained on and that the "
+            f"near plane (raster.near = {config.raster.near} scene units) suits the scene's "
+            "scale (min_seen and min_masked in the build config set the thresholds, 0 turns a "
+            "check off)"
+        )
+    return coverage
 
 
 def _field_stage(
