@@ -128,16 +128,15 @@ def parse_instruction(text: str, index: CategoryIndex) -> Instruction:
     items = read_items(main_tokens, index)
     reader = _Reader(items, viewpoint)
     target = reader.read()
-    if (
-        target is not None
-        and target.mention is not None
-        and target.mention.phrase in ("one", "ones")
-        and viewpoint is not None
-        and viewpoint.categories
-    ):  # "facing the windows, the one on the left": one of the windows
-        target = replace(target, mention=viewpoint.mention)
     joined = " ".join(tokens)
     wh = bool(main_tokens) and (main_tokens[0] in g.WH_WORDS or joined.startswith("how many"))
+    if viewpoint is not None and viewpoint.categories and not wh:
+        if target is None:  # "facing the windows, left": one of the windows
+            target = NounPhrase(mention=viewpoint.mention)
+        elif target.mention is None or target.mention.phrase in ("one", "ones"):
+            # "facing the chairs, choose the second from the left", "... the one on the
+            # left": one of the chairs
+            target = replace(target, mention=viewpoint.mention)
     if g.REMOVAL_TRIGGERS.search(joined) or (
         g.FALL_TRIGGERS.search(joined) and target is not None and not target.is_any
     ):

@@ -187,7 +187,15 @@ class Planner:
         related = self._related(step, c.kind, a, singular=singular and not c.negated,
                                 selectors=selectors)  # fmt: skip
         if c.negated:
-            return Planned(self.b.add(Op.DIFFERENCE, step, related), None)
+            out = self.b.add(Op.DIFFERENCE, step, related)
+            if singular and self.b.size(out) == 0 and self.b.size(step) > 0:
+                # "the chair that is not at a desk" when every chair is near one: the one
+                # farthest from them
+                self.b.note(f"every candidate is {_WORDS.get(c.kind, c.kind)} it; took the"
+                            " farthest instead")  # fmt: skip
+                anchor = a[0] if len(a) == 1 else self.b.union(a)
+                out = self.b.add(Op.ARGMAX, step, anchor, metric=Metric.DISTANCE)
+            return Planned(out, None)
         anchor = a[0] if len(a) == 1 else self.b.union(a)
         return Planned(related, anchor, between=c.kind == "between", vertical=c.kind in VERTICAL)
 
