@@ -19,12 +19,22 @@ client time out). Requests are kept for inspection. It reproduces what real serv
   llama.cpp's grammar: every property present (strict mode), arrays at their ``maxItems``,
   strings at their longest, as many steps as the schema allows. Whether that fits a token
   budget depends only on the schema's bounds.
+
+Run as a program it serves on its own (``.ci/wheel-check`` asks an installed wheel's CLI
+through it): ``python tests/causalsplat/reason/vlm_server.py --reply FILE [--times N]
+[--requests FILE]`` prints its base URL as the first line on stdout, answers the first
+``N`` requests (default 1) with the content of ``--reply`` and later ones with HTTP 503,
+and on SIGTERM or SIGINT stops and writes the requests it received to ``--requests``
+(a JSON list of ``{"path", "body"}``).
 """
 
 from __future__ import annotations
 
+import argparse
 import json
 import re
+import signal
+import sys
 import threading
 import time
 from collections import deque
@@ -299,3 +309,28 @@ def _completion(body: dict[str, Any], content: str, finish_reason: str) -> dict[
         ],
         "usage": {"prompt_tokens": 1, "completion_tokens": used, "total_tokens": used + 1},
     }
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Serve scripted replies until SIGTERM or SIGINT (module docstring)."""
+    parser = argparse.ArgumentParser(description="A scripted OpenAI-compatible server.")
+    parser.add_argument("--reply", required=True, help="file whose text is every reply")
+    parser.add_argument("--times", type=int, default=1, help="requests to answer (then 503)")
+    parser.add_argument("--requests", help="JSON file for the requests received, on exit")
+    args = parser.parse_args(argv)
+    with open(args.reply, encoding="utf-8") as f:
+        content = f.read()
+    stop = threading.Event()
+    for sig in (signal.SIGTERM, signal.SIGINT):
+        signal.signal(sig, lambda *_: stop.set())
+    with ScriptedServer() as server:
+        server.script.extend([Reply(content)] * args.times)
+        print(server.base_url, flush=True)
+        stop.wait()
+    if args.requests:
+        with open(args.requests, "w", encoding="utf-8") as f:
+            json.dump(server.requests, f)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
