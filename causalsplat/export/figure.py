@@ -12,6 +12,7 @@ from __future__ import annotations
 import hashlib
 from pathlib import Path
 
+from causalsplat.errors import MissingDependencyError
 from causalsplat.export.source import ExportError
 from graph_store import RelationType, SceneGraph
 
@@ -35,8 +36,8 @@ def draw_scene_graph(graph: SceneGraph, out: str | Path, *, width: int = 1200) -
     """Draw ``graph`` top-down into the PNG ``out`` (module docstring); returns the path."""
     try:
         from PIL import Image, ImageDraw
-    except ImportError as exc:  # pragma: no cover - pillow ships with the field extra
-        raise ImportError(
+    except ImportError as exc:  # pillow ships with the field extra
+        raise MissingDependencyError(
             "the scene-graph figure needs pillow: pip install 'causalsplat[field]'"
         ) from exc
     if not graph.entities:

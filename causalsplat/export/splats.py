@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from causalsplat.build.folder import find_ply, read_cameras, view_stem
+from causalsplat.errors import MissingDependencyError
 from causalsplat.export.source import ExportError, check_hash, source_folder
 from causalsplat.io import read_gaussian_ply, write_ply
 from graph_store import SceneGraph
@@ -77,11 +78,16 @@ def export_answer_masks(
     weight (the other Gaussians still occlude) and its opacity reaches 0.5, as in
     :func:`~causalsplat.render.render_ids`. ``views``: image stems to render (default all).
     """
-    from PIL import Image
+    root = source_folder(graph, source)
+    try:
+        from PIL import Image
+    except ImportError as exc:  # pillow ships with the field extra
+        raise MissingDependencyError(
+            "answer masks are written with pillow: pip install 'causalsplat[field]'"
+        ) from exc
 
     from causalsplat.render import render_ids
 
-    root = source_folder(graph, source)
     ply_path = find_ply(root)
     check_hash(graph, root, ply_path)
     scene = read_gaussian_ply(ply_path).scene
