@@ -6,7 +6,7 @@ PY := $(VENV)/bin/python
 PIP := $(PY) -m pip install --constraint constraints.txt
 EXTRAS ?= field,embed,vlm,postgres,dev
 
-.PHONY: venv demo test lint typecheck pytest bench bench-store db-check vlm-check clean
+.PHONY: venv demo test lint typecheck pytest bench bench-store db-check wheel-check vlm-check clean
 
 comma := ,
 STAMP := $(VENV)/.stamp-$(subst $(comma),_,$(EXTRAS))
@@ -36,6 +36,12 @@ pytest: $(STAMP)
 
 db-check: $(STAMP)
 	bash .ci/db-check
+
+# The wheel installed in a fresh venv without torch and used from outside the checkout: every
+# package file installed; ask (offline, and --reasoner vlm against the loopback test server),
+# query, sparql, export, scenes. About a minute; see .ci/wheel-check.
+wheel-check: $(STAMP)
+	PY=$(PY) PYTHON=$(PYTHON) bash .ci/wheel-check
 
 bench-store: $(STAMP)
 	$(PY) -m causalsplat bench --only store
