@@ -37,9 +37,11 @@ pytest: $(STAMP)
 db-check: $(STAMP)
 	bash .ci/db-check
 
-# The wheel in a fresh virtual environment, used from outside the repository (.ci/wheel-check).
+# The wheel installed in a fresh venv without torch and used from outside the checkout: every
+# package file installed; ask (offline, and --reasoner vlm against the loopback test server),
+# query, sparql, export, scenes. About a minute; see .ci/wheel-check.
 wheel-check: $(STAMP)
-	DEV_PY=$(abspath $(PY)) bash .ci/wheel-check
+	PY=$(PY) PYTHON=$(PYTHON) bash .ci/wheel-check
 
 bench-store: $(STAMP)
 	$(PY) -m causalsplat bench --only store

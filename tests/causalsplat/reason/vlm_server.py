@@ -19,12 +19,22 @@ client time out). Requests are kept for inspection. It reproduces what real serv
   llama.cpp's grammar: every property present (strict mode), arrays at their ``maxItems``,
   strings at their longest, as many steps as the schema allows. Whether that fits a token
   budget depends only on the schema's bounds.
+
+Run as a program it serves on its own (``.ci/wheel-check`` asks an installed wheel's CLI
+through it): ``python tests/causalsplat/reason/vlm_server.py --reply FILE [--times N]
+[--requests FILE]`` prints its base URL as the first line on stdout, answers the first
+``N`` requests (default 1) with the content of ``--reply`` and later ones with HTTP 503,
+and on SIGTERM or SIGINT stops and writes the requests it received to ``--requests``
+(a JSON list of ``{"path", "body"}``).
 """
 
 from __future__ import annotations
 
+import argparse
 import json
 import re
+import signal
+import sys
 import threading
 import time
 from collections import deque
@@ -99,9 +109,7 @@ def filled(schema: dict[str, Any]) -> Any:
     """The largest value ``schema`` admits: strings of 3-letter words (about a token per 4
     characters, as real tokenizers go), numbers with 16 digits, arrays at ``maxItems``."""
     if "anyOf" in schema:
-        # the longest alternative (a step schema per op: the op with the most fields)
-        values = [filled(s) for s in schema["anyOf"] if s.get("type") != "null"]
-        return max(values, key=lambda v: len(json.dumps(v)))
+        return filled(next(s for s in schema["anyOf"] if s.get("type") != "null"))
     kind = schema.get("type")
     if kind == "object":
         return {name: filled(sub) for name, sub in schema.get("properties", {}).items()}
@@ -303,38 +311,26 @@ def _completion(body: dict[str, Any], content: str, finish_reason: str) -> dict[
     }
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Serve one reply to every request until killed, as its own process (``make
-    wheel-check`` points an installed wheel at it): ``python -m
-    tests.causalsplat.reason.vlm_server REPLY_FILE PORT_FILE`` writes the base URL to
-    PORT_FILE once listening."""
-    import argparse
-    import signal
-    from pathlib import Path
-
-    parser = argparse.ArgumentParser(prog="python -m tests.causalsplat.reason.vlm_server")
-    parser.add_argument("reply_file", type=Path, help="the reply's content (a JSON document)")
-    parser.add_argument("url_file", type=Path, help="where to write the base URL")
+def main(argv: list[str] | None = None) -> None:
+    """Serve scripted replies until SIGTERM or SIGINT (module docstring)."""
+    parser = argparse.ArgumentParser(description="A scripted OpenAI-compatible server.")
+    parser.add_argument("--reply", required=True, help="file whose text is every reply")
+    parser.add_argument("--times", type=int, default=1, help="requests to answer (then 503)")
+    parser.add_argument("--requests", help="JSON file for the requests received, on exit")
     args = parser.parse_args(argv)
-    content = args.reply_file.read_text(encoding="utf-8")
-
-    class Forever(deque):  # type: ignore[type-arg]
-        """A script that never runs out: the same reply every time."""
-
-        def popleft(self) -> Reply:
-            return Reply(content)
-
-        def __bool__(self) -> bool:
-            return True
-
+    with open(args.reply, encoding="utf-8") as f:
+        content = f.read()
     stop = threading.Event()
-    signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    for sig in (signal.SIGTERM, signal.SIGINT):
+        signal.signal(sig, lambda *_: stop.set())
     with ScriptedServer() as server:
-        server.script = Forever()
-        args.url_file.write_text(server.base_url, encoding="utf-8")
+        server.script.extend([Reply(content)] * args.times)
+        print(server.base_url, flush=True)
         stop.wait()
-    return 0
+    if args.requests:
+        with open(args.requests, "w", encoding="utf-8") as f:
+            json.dump(server.requests, f)
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    sys.exit(main())
