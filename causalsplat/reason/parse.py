@@ -460,8 +460,11 @@ class _Reader:
         target = self.target
         if target is None:
             kept = tuple(c for c in self.constraints if c.anchors)
-            # "somewhere to sit near the counter": no target phrase, but a relation
-            return NounPhrase(None, constraints=kept) if kept else None
+            # "somewhere to sit near the counter": no target phrase, but a relation; "the
+            # second from the left": no target phrase, but what singles it out
+            if not kept and not self.mods:
+                return None
+            return _with_modifiers(NounPhrase(None, constraints=kept), self.mods)
         constraints = self.constraints
         if self.subject is not None:
             if any(not c.anchors for c in constraints):

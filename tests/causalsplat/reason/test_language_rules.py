@@ -184,3 +184,27 @@ def test_a_viewpoint_phrase_with_its_own_side_is_read_from_the_default_observer(
         "of the sink."
     )
     assert ask(_scene(boxes), text) in ((2,), (3,))
+
+
+def test_a_viewpoint_names_the_target_when_the_main_clause_names_nothing() -> None:
+    # Nr3D's "facing the chairs, choose the second from the left": one of the chairs, and
+    # the words that single it out are kept although no noun follows them
+    scene = _scene(KITCHEN)
+    left = ask(scene, "facing the chairs, left")
+    second = ask(scene, "facing the chairs, choose the second from the left")
+    assert {left, second} == {(6,), (7,)}
+    # a question keeps asking about anything
+    ins = REASONER.parse("facing the chairs, what is on the left?", scene)
+    assert ins.target is not None and ins.target.categories == ()
+
+
+def test_a_negated_relation_every_candidate_meets_takes_the_farthest() -> None:
+    # both chairs stand at the desk; "not at the desk" then means the one farther from it
+    boxes: list[Box] = [
+        (1, "desk", (0.0, 0.0, 0.4), (1.6, 0.8, 0.8)),
+        (2, "chair", (0.3, 0.6, 0.45), (0.5, 0.5, 0.9)),
+        (3, "chair", (1.1, 0.7, 0.45), (0.5, 0.5, 0.9)),
+    ]
+    scene = _scene(boxes)
+    assert ask(scene, "the chair next to the desk") == (2,)
+    assert ask(scene, "the chair that is not next to the desk") == (3,)
