@@ -126,7 +126,7 @@ def parse_instruction(text: str, index: CategoryIndex) -> Instruction:
     view_tokens, main_tokens = _split_viewpoint(tokens)
     viewpoint, standing = _viewpoint(view_tokens, index)
     items = read_items(main_tokens, index)
-    reader = _Reader(items, viewpoint)
+    reader = _Reader(items, viewpoint, main_tokens)
     target = reader.read()
     joined = " ".join(tokens)
     wh = bool(main_tokens) and (main_tokens[0] in g.WH_WORDS or joined.startswith("how many"))
@@ -387,9 +387,12 @@ class _Reader:
     phrase that was not yet given a role ("there is a chair in front of it").
     """
 
-    def __init__(self, items: list[Item], viewpoint: NounPhrase | None) -> None:
+    def __init__(
+        self, items: list[Item], viewpoint: NounPhrase | None, tokens: tuple[str, ...] = ()
+    ) -> None:
         self.items = items
         self.viewpoint = viewpoint
+        self.tokens = tokens
         self.target: NounPhrase | None = None
         self.subject: NounPhrase | None = None
         self.closed = False  # a clause ended after the target: no subject any more
@@ -414,6 +417,10 @@ class _Reader:
                 self.mods.append(mod)
             elif it.np is not None:
                 self._noun_phrase(k, it.np)  # type: ignore[arg-type]
+            elif it.cue is not None and self._before_its_noun(k):
+                k = self._superlative(k)
+                negated = False
+                continue
             elif it.cue is not None:
                 nested = k == self.last_anchor_end and it.cue.kind == "with"
                 first = k
@@ -446,6 +453,46 @@ class _Reader:
             self.target = replace(self.target, coordinated=(*self.target.coordinated, np))
         else:
             self.free = np
+
+    def _before_its_noun(self, k: int) -> bool:
+        """ "the closest chair (to the door)": a closest / farthest cue without its "to" /
+        "from", right before the first noun phrase, qualifies that phrase."""
+        items, cue = self.items, self.items[k].cue
+        assert cue is not None
+        return (
+            cue.kind in ("closest", "farthest")
+            and self.target is None
+            and bool(self.tokens)
+            and self.tokens[cue.end - 1] not in ("to", "from")
+            and k + 1 < len(items)
+            and items[k + 1].np is not None
+            and items[k + 1].start == cue.end
+        )
+
+    def _superlative(self, k: int) -> int:
+        """The phrase after the cue is the target; it is measured from the phrase after a
+        "to" / "from" ("the closest chair to the door"), else from the viewpoint entity
+        ("standing at the table, it is the closest chair"); with neither, the cue is
+        dropped. Returns the next item index."""
+        items, cue = self.items, self.items[k].cue
+        assert cue is not None
+        np = items[k + 1].np
+        self._noun_phrase(k + 1, np)  # type: ignore[arg-type]
+        k += 2
+        anchor: NounPhrase | None = None
+        if (
+            k < len(items)
+            and items[k].np is not None
+            and any(t in ("to", "from") for t in self.tokens[items[k - 1].end : items[k].start])
+        ):
+            anchor = items[k].np  # type: ignore[assignment]
+            k += 1
+        elif self.viewpoint is not None:
+            anchor = self.viewpoint
+        if anchor is not None:
+            span = (cue.start, items[k - 1].end)
+            self.constraints.append(Constraint(cue.kind, (anchor,), span=span))
+        return k
 
     def _add(self, constraint: Constraint, *, nested: bool) -> None:
         if nested and self.constraints and self.constraints[-1].anchors:

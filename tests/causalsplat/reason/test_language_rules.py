@@ -208,3 +208,13 @@ def test_a_negated_relation_every_candidate_meets_takes_the_farthest() -> None:
     scene = _scene(boxes)
     assert ask(scene, "the chair next to the desk") == (2,)
     assert ask(scene, "the chair that is not next to the desk") == (3,)
+
+
+def test_closest_before_its_noun_qualifies_that_noun() -> None:
+    # "the closest chair to the monitor" is a chair (it was read as "closest to the chair")
+    scene = _scene(KITCHEN)
+    assert ask(scene, "the closest chair to the monitor") == (6,)
+    assert ask(scene, "the nearest stool to the bookshelf") == (4,)
+    # measured from where the observer stands when no "to" follows
+    assert ask(scene, "standing at the bookshelf, the closest stool") == (4,)
+    assert ask(scene, "If you are standing at the stove, it is the closest stool.") == (3,)
