@@ -36,7 +36,8 @@ CUE_PATTERNS: tuple[tuple[str, str], ...] = (
     ("between", r"(?:(?:directly|right|just) )?(?:in )?between|"
                 r"in the (?:middle|center|centre) of"),
     ("farthest", r"(?:the )?(?:(?:farthest|furthest|farther|further|far)(?: away)?|away) from"),
-    ("closest", r"(?:the )?(?:closest|nearest|closer|nearer)(?: to)?"),
+    ("closest", r"(?:the )?(?:closest|nearest|closer|nearer)(?: to)?|"
+                r"(?:(?:directly|right|just) )?(?:across from|opposite(?: to| from| of)?)"),
     ("near", r"(?:(?:right|directly|just|located|placed|sitting|standing) )?"
              r"(?:near(?: to)?|next to|beside|besides|by|adjacent to|alongside|close to|"
              r"nearby|against|at)"),

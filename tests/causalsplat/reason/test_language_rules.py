@@ -218,3 +218,9 @@ def test_closest_before_its_noun_qualifies_that_noun() -> None:
     # measured from where the observer stands when no "to" follows
     assert ask(scene, "standing at the bookshelf, the closest stool") == (4,)
     assert ask(scene, "If you are standing at the stove, it is the closest stool.") == (3,)
+
+
+def test_across_from_reads_as_the_one_closest_to_the_anchor() -> None:
+    scene = _scene(KITCHEN)
+    assert ask(scene, "the stool across from the stove") == (3,)
+    assert ask(scene, "the stool opposite the bookshelf") == (4,)
