@@ -55,19 +55,38 @@ class _Group(click.Group):
 
 @click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(package_name="causalsplat")
-def cli() -> None:
+@click.option(
+    "--db",
+    "db_url",
+    default=None,
+    help="Database URL for the command (the same as the command's own --db, which wins).",
+)
+@click.pass_context
+def cli(ctx: click.Context, db_url: str | None) -> None:
     """CausalSplat: reasoning over 3D Gaussian Splatting scenes through a persisted scene graph.
 
     Every command takes --db URL (default sqlite:///causalsplat.db, or the
-    CAUSALSPLAT_DB environment variable) and --json for one JSON document on stdout.
+    CAUSALSPLAT_DB environment variable), before or after its name, and --json for one
+    JSON document on stdout.
     """
+    ctx.obj = {"db_url": db_url}
+
+
+def default_db() -> str:
+    """The store a command uses without its own --db: the one given before the command's
+    name (``causalsplat --db URL scenes``), else ``$CAUSALSPLAT_DB``, else
+    :data:`DEFAULT_DB`."""
+    ctx = click.get_current_context(silent=True)
+    root = ctx.find_root() if ctx is not None else None
+    given = (root.obj or {}).get("db_url") if root is not None else None
+    return given or os.environ.get("CAUSALSPLAT_DB", DEFAULT_DB)
 
 
 def db_option(func: F) -> F:
     return click.option(
         "--db",
         "db_url",
-        default=lambda: os.environ.get("CAUSALSPLAT_DB", DEFAULT_DB),
+        default=default_db,
         show_default="sqlite:///causalsplat.db or $CAUSALSPLAT_DB",
         help="Database URL (sqlite:///PATH or postgresql+psycopg://...).",
     )(func)

@@ -124,5 +124,20 @@ def _print(doc: dict[str, Any]) -> None:
         tag = " (cached)" if stage["cached"] else ""
         click.echo(f"   {stage['name']:<10} {stage['seconds']:7.2f} s{tag}")
     click.echo(f"   peak memory {b['peak_rss_mib']:.0f} MiB")
-    click.echo(f"\nquery it again: causalsplat ask 'where can I sit?' --scene {doc['scene_id']} "
+    click.echo(f"\nquery it again: {_command()} ask 'where can I sit?' --scene {doc['scene_id']} "
                f"--db {doc['db']}")  # fmt: skip
+
+
+def _command() -> str:
+    """How to call this CLI from the current folder: ``causalsplat`` when the shell finds
+    this very script on PATH, else its path (``.venv/bin/causalsplat`` after ``make demo``)."""
+    script = Path(sys.executable).parent / "causalsplat"
+    found = shutil.which("causalsplat")
+    if found is not None and Path(found).resolve() == script.resolve():
+        return "causalsplat"
+    if not script.exists():
+        return f"{sys.executable} -m causalsplat"
+    try:
+        return str(script.relative_to(Path.cwd()))
+    except ValueError:
+        return str(script)

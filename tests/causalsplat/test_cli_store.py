@@ -114,3 +114,23 @@ def test_db_upgrade_and_current(tmp_path: Path) -> None:
         "from": "0001",
         "to": "0001",
     }
+
+
+def test_db_before_the_command_name(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """``causalsplat --db URL export ...`` as the help says every command takes --db; the
+    command's own --db wins over it, and it wins over $CAUSALSPLAT_DB."""
+    here = f"sqlite:///{tmp_path / 'here.db'}"
+    doc = tmp_path / "objects.json"
+    doc.write_text(json.dumps({"scene_id": "k", "objects": [
+        {"id": 1, "label": "sink", "center": [0, 0, 0.9], "size": [0.6, 0.4, 0.2]}]}))  # fmt: skip
+    run("--db", here, "ingest-objects", str(doc))
+    assert "k " in run("--db", here, "scenes").stdout
+    assert "sink" in run("--db", here, "export", "--format", "ntriples").stdout
+    missing = f"sqlite:///{tmp_path / 'missing.db'}"
+    assert "k " in run("--db", missing, "scenes", "--db", here).stdout
+    refused = run("--db", missing, "scenes", check=False)
+    assert_one_line_error(refused, "no store at")
+    assert not (tmp_path / "missing.db").exists()
+    monkeypatch.setenv("CAUSALSPLAT_DB", missing)
+    assert "k " in run("--db", here, "scenes").stdout
+    assert_one_line_error(run("scenes", check=False), "no store at")

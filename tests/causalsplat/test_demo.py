@@ -11,6 +11,8 @@ questions on stools the build merged or swapped), and seeds 1 and 3 answer all f
 from __future__ import annotations
 
 import json
+import shlex
+import subprocess
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +22,7 @@ import rdflib
 from causalsplat.io import read_gaussian_ply
 from graph_store import open_store
 from tests.causalsplat.test_cli_store import run
+from tests.conftest import COMMAND_TIMEOUT_S, REPO_ROOT
 
 
 @pytest.mark.parametrize(("size", "seed"), [("tiny", 1), ("small", 0)])
@@ -63,3 +66,9 @@ def test_demo_text_output(tmp_path: Path) -> None:
     for part in ("1. writing", "2. building", "3. exported", "4. asking", "5. stage timings",
                  "v0 = scene()", "3D IoU"):  # fmt: skip
         assert part in text, part
+    # the closing hint is a command that works as printed, from where the demo ran
+    hint = text.rsplit("query it again: ", 1)[1].strip()
+    again = subprocess.run(shlex.split(hint), capture_output=True, text=True, cwd=REPO_ROOT,
+                           timeout=COMMAND_TIMEOUT_S)  # fmt: skip
+    assert again.returncode == 0, again.stderr
+    assert "answered by offline" in again.stdout
