@@ -224,3 +224,20 @@ def test_across_from_reads_as_the_one_closest_to_the_anchor() -> None:
     scene = _scene(KITCHEN)
     assert ask(scene, "the stool across from the stove") == (3,)
     assert ask(scene, "the stool opposite the bookshelf") == (4,)
+
+
+def test_a_relation_that_selects_nothing_leaves_the_choice_to_the_phrase_s_selector() -> None:
+    # pictures hang in front of the wall (no support edge); "the highest picture on the wall"
+    # is the highest, not the one closest to the wall, and without a selector of its own the
+    # phrase still takes the closest
+    boxes: list[Box] = [
+        (1, "wall", (0.0, 0.0, 1.5), (6.0, 0.1, 3.0)),
+        (2, "picture", (-1.0, 0.15, 1.2), (0.5, 0.05, 0.4)),
+        (3, "picture", (2.5, 0.25, 2.2), (0.5, 0.05, 0.4)),
+        (4, "picture", (0.2, 0.12, 1.4), (0.5, 0.05, 0.4)),
+    ]
+    scene = _scene(boxes)
+    answer = REASONER.answer("the highest picture on the wall", scene)
+    assert answer.entity_ids == (3,)
+    assert "the relation was not used" in answer.explanation
+    assert ask(scene, "the picture on the wall") == (4,)
