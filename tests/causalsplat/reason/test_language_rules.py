@@ -241,3 +241,18 @@ def test_a_relation_that_selects_nothing_leaves_the_choice_to_the_phrase_s_selec
     assert answer.entity_ids == (3,)
     assert "the relation was not used" in answer.explanation
     assert ask(scene, "the picture on the wall") == (4,)
+
+
+def test_top_and_bottom_before_a_noun_single_out_the_highest_and_lowest() -> None:
+    boxes: list[Box] = [
+        (1, "shelf", (0.0, 0.0, 1.0), (1.0, 0.4, 2.0)),
+        (2, "box", (0.0, 0.0, 0.3), (0.4, 0.3, 0.3)),
+        (3, "box", (0.1, 0.0, 1.1), (0.4, 0.3, 0.3)),
+        (4, "box", (-0.1, 0.0, 1.8), (0.4, 0.3, 0.3)),
+    ]
+    scene = _scene(boxes)
+    assert ask(scene, "the bottom box") == (2,)
+    assert ask(scene, "pick the top box") == (4,)
+    # a noun of position elsewhere stays a noun: "on top of the shelf" is a relation
+    ins = REASONER.parse("the box on top of the shelf", scene)
+    assert ins.target is not None and ins.target.extremes == ()
