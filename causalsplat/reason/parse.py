@@ -161,15 +161,26 @@ def parse_instruction(text: str, index: CategoryIndex) -> Instruction:
         kind = "count"
     elif main_tokens[:2] in (("is", "there"), ("are", "there")):
         kind = "exists"
-    elif (wh and _set_question(main_tokens, target)) or (
-        target.is_any and any(t in ("all", "every", "everything") for t in main_tokens)
-    ):
+    elif (wh and _set_question(main_tokens, target)) or _quantified(main_tokens, target):
         kind = "set"
     else:
         kind = "refer"
     closure = kind == "set" and bool(g.CLOSURE_TRIGGERS.search(joined))
     return Instruction(text, tokens, kind, target, viewpoint=viewpoint, standing_at=standing,
                        closure=closure)  # fmt: skip
+
+
+#: Words that ask for every entity that qualifies ("all the stools at the counter").
+_UNIVERSAL = frozenset({"all", "every", "each", "everything", "both"})
+
+
+def _quantified(tokens: tuple[str, ...], target: NounPhrase) -> bool:
+    """Whether a universal quantifier governs the target: before its noun ("all the seats
+    at the table", "every pillow on the bed"), or anywhere when the target is any entity
+    ("everything on the desk")."""
+    if target.is_any or target.mention is None:
+        return any(t in _UNIVERSAL for t in tokens)
+    return any(t in _UNIVERSAL for t in tokens[: target.mention.start])
 
 
 #: Lowest lexicon score of a mention that names a category (see ``ground.NAMED``).

@@ -256,3 +256,32 @@ def test_top_and_bottom_before_a_noun_single_out_the_highest_and_lowest() -> Non
     # a noun of position elsewhere stays a noun: "on top of the shelf" is a relation
     ins = REASONER.parse("the box on top of the shelf", scene)
     assert ins.target is not None and ins.target.extremes == ()
+
+
+@pytest.mark.parametrize(
+    ("text", "kind"),
+    [
+        ("the thing to the left of the stove", "refer"),
+        ("something to the right of the bookshelf", "refer"),
+        ("the thing that is next to the stove", "refer"),
+        ("something to sit on", "action"),
+        ("hand me the thing to sit on next to the stove", "action"),
+        ("something that I can sit on", "action"),
+        ("I need a place to put my books", "action"),
+    ],
+)
+def test_to_of_a_place_is_no_purpose(text: str, kind: str) -> None:
+    # "to" before a determiner is the preposition of a place, not the mark of a purpose
+    assert REASONER.parse(text, _scene(KITCHEN)).kind == kind
+
+
+def test_a_universal_quantifier_asks_for_every_entity_that_qualifies() -> None:
+    scene = _scene(KITCHEN)
+    # both stools stand near something; "the stool near the stove" is one of them
+    assert ask(scene, "the stool next to the stove") == (3,)
+    assert REASONER.parse("all the stools", scene).kind == "set"
+    assert ask(scene, "all the stools") == (3, 4)
+    assert ask(scene, "every chair") == (6, 7)
+    assert REASONER.parse("each stool next to the stove", scene).kind == "set"
+    # a quantifier after the target's noun does not govern it
+    assert REASONER.parse("the stool that is closest to all the chairs", scene).kind == "refer"
