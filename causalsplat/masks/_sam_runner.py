@@ -8,7 +8,7 @@ that says what does not fit, before any image is segmented.
 
 from __future__ import annotations
 
-import pickle
+import re
 import warnings
 from collections.abc import Callable, Mapping
 from pathlib import Path
@@ -38,6 +38,21 @@ def _first_line(exc: BaseException) -> str:
     return text.splitlines()[0] if text else type(exc).__name__
 
 
+def _unreadable(path: Path, exc: Exception) -> CheckpointError:
+    """One line for what ``torch.load(weights_only=True)`` raised on ``path``."""
+    text = str(exc)
+    unsafe = re.search(r"Unsupported global: GLOBAL (\S+)", text)
+    if unsafe:
+        return CheckpointError(
+            f"checkpoint {path} holds more than weights ({unsafe[1]}, which loading weights"
+            " only refuses): save its state dict, torch.save(model.state_dict(), path)"
+        )
+    detail = text.partition("WeightsUnpickler error:")[2].strip() or text.strip()
+    detail = detail.splitlines()[0] if detail else ""
+    detail = ": ".join(dict.fromkeys([type(exc).__name__, detail or type(exc).__name__]))
+    return CheckpointError(f"checkpoint {path} is not a PyTorch weights file ({detail})")
+
+
 def read_state_dict(path: Path) -> dict[str, torch.Tensor]:
     """The weights of a checkpoint: a state dict, or SAM 2's ``{"model": state dict}``.
 
@@ -46,15 +61,8 @@ def read_state_dict(path: Path) -> dict[str, torch.Tensor]:
         with warnings.catch_warnings():  # e.g. about the pickle protocol of a foreign file
             warnings.simplefilter("ignore")
             document = torch.load(path, map_location="cpu", weights_only=True)
-    except pickle.UnpicklingError as exc:
-        raise CheckpointError(
-            f"checkpoint {path} holds more than weights (torch.load(weights_only=True) refuses"
-            " it): save its state dict, torch.save(model.state_dict(), path)"
-        ) from exc
     except Exception as exc:  # torch.load fails in many ways on a file that is not one
-        detail = ": ".join(dict.fromkeys([type(exc).__name__, _first_line(exc)]))
-        message = f"checkpoint {path} is not a PyTorch weights file ({detail})"
-        raise CheckpointError(message) from exc
+        raise _unreadable(path, exc) from exc
     if isinstance(document, Mapping) and isinstance(document.get("model"), Mapping):
         document = document["model"]
     if not (

@@ -8,6 +8,7 @@ thresholds 0 so that random weights still give masks) and its tests share that r
 
 from __future__ import annotations
 
+import argparse
 import importlib.util
 import json
 import os
@@ -178,6 +179,9 @@ def test_bad_inputs_are_typed_errors(sam_run: Run, tmp_path: Path) -> None:
     junk = tmp_path / "junk.pth"
     junk.write_bytes(b"hello, not weights")
     with pytest.raises(CheckpointError, match=r"junk\.pth is not a PyTorch weights file"):
+        _call(tmp_path, sam_run.images, junk)
+    torch.save({"args": argparse.Namespace(lr=0.1), "model": {"w": torch.zeros(2)}}, junk)
+    with pytest.raises(CheckpointError, match=r"holds more than weights \(argparse\.Namespace"):
         _call(tmp_path, sam_run.images, junk)
     torch.save({"epoch": torch.tensor(3), "lr": 0.1}, junk)
     with pytest.raises(CheckpointError, match=r"holds no state dict \(names -> tensors\)"):
