@@ -142,7 +142,11 @@ def read_items(tokens: tuple[str, ...], index: CategoryIndex) -> list[Item]:
                 items.append(Item(i, cue.end, cue=cue))
             i = cue.end
             continue
-        if t in g.DETERMINERS and t not in ("that", "this", "its", "their"):
+        if t in g.DETERMINERS and (
+            t not in ("that", "this", "its", "their")
+            # a demonstrative right before a noun is its determiner ("this cabinet")
+            or (t == "this" and i + 1 < len(tokens) and mention_at(index, tokens, i + 1))
+        ):
             i += 1
             continue
         if t in _POSITION_ADJECTIVES and i + 1 < len(tokens) and mention_at(index, tokens, i + 1):

@@ -157,6 +157,8 @@ def parse_instruction(text: str, index: CategoryIndex) -> Instruction:
                            main_tokens=main_tokens)  # fmt: skip
     if target is None:
         target = NounPhrase(None)
+    elif not wh:
+        target = _demonstrated(target, main_tokens)
     if joined.startswith("how many"):
         kind = "count"
     elif main_tokens[:2] in (("is", "there"), ("are", "there")):
@@ -617,6 +619,29 @@ _INVERSE = {
     "below": "above", "inside": "contains", "contains": "inside", "left_of": "right_of",
     "right_of": "left_of", "in_front_of": "behind", "behind": "in_front_of",
 }  # fmt: skip
+#: Relations that read the other way round ("A above B" is "B below A").
+_TURNABLE = frozenset({*_INVERSE, "near"})
+
+
+def _demonstrated(target: NounPhrase, tokens: tuple[str, ...]) -> NounPhrase:
+    """The phrase a demonstrative points at is the one described: "there are plants next to
+    this cabinet" describes the cabinet (near the plants), "there is no dispenser above
+    this trash can" the trash can (not below a dispenser). Only a target with that one
+    relation, whose one anchor follows "this" / "these", is turned round."""
+    if len(target.constraints) != 1 or target.mention is None or target.is_any:
+        return target
+    (c,) = target.constraints
+    if len(c.anchors) != 1 or c.kind not in _TURNABLE:
+        return target
+    (anchor,) = c.anchors
+    m = anchor.mention
+    if m is None or anchor.is_any or not anchor.categories or m.start == 0:
+        return target
+    if tokens[m.start - 1] not in ("this", "these"):
+        return target
+    described = replace(target, constraints=())
+    turned = Constraint(_inverse(c.kind), (described,), negated=c.negated, span=c.span)
+    return replace(anchor, constraints=(*anchor.constraints, turned))
 
 
 def _inverse(kind: str) -> str:

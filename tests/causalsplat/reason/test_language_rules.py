@@ -285,3 +285,19 @@ def test_a_universal_quantifier_asks_for_every_entity_that_qualifies() -> None:
     assert REASONER.parse("each stool next to the stove", scene).kind == "set"
     # a quantifier after the target's noun does not govern it
     assert REASONER.parse("the stool that is closest to all the chairs", scene).kind == "refer"
+
+
+def test_a_demonstrative_points_at_the_phrase_described() -> None:
+    # "there is a lamp on this desk" describes the desk, not the lamp
+    boxes: list[Box] = [
+        (1, "desk", (0.0, 0.0, 0.4), (1.2, 0.6, 0.8)),
+        (2, "desk", (3.0, 0.0, 0.4), (1.2, 0.6, 0.8)),
+        (3, "lamp", (3.2, 0.0, 1.0), (0.2, 0.2, 0.4)),
+        (4, "chair", (0.0, 1.0, 0.45), (0.5, 0.5, 0.9)),
+    ]
+    scene = _scene(boxes)
+    assert ask(scene, "There is a lamp on this desk.") == (2,)
+    assert ask(scene, "There is no lamp on this desk.") == (1,)
+    assert ask(scene, "there are chairs next to this desk") == (1,)
+    # "this" on the target itself changes nothing
+    assert ask(scene, "This desk has a lamp on it.") == (2,)
