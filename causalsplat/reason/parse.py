@@ -158,7 +158,7 @@ def parse_instruction(text: str, index: CategoryIndex) -> Instruction:
     if target is None:
         target = NounPhrase(None)
     elif not wh:
-        target = _demonstrated(target, main_tokens)
+        target = _demonstrated(target, main_tokens, viewpoint)
     if joined.startswith("how many"):
         kind = "count"
     elif main_tokens[:2] in (("is", "there"), ("are", "there")):
@@ -623,7 +623,9 @@ _INVERSE = {
 _TURNABLE = frozenset({*_INVERSE, "near"})
 
 
-def _demonstrated(target: NounPhrase, tokens: tuple[str, ...]) -> NounPhrase:
+def _demonstrated(
+    target: NounPhrase, tokens: tuple[str, ...], viewpoint: NounPhrase | None
+) -> NounPhrase:
     """The phrase a demonstrative points at is the one described: "there are plants next to
     this cabinet" describes the cabinet (near the plants), "there is no dispenser above
     this trash can" the trash can (not below a dispenser). Only a target with that one
@@ -635,7 +637,11 @@ def _demonstrated(target: NounPhrase, tokens: tuple[str, ...]) -> NounPhrase:
         return target
     (anchor,) = c.anchors
     m = anchor.mention
-    if m is None or anchor.is_any or not anchor.categories or m.start == 0:
+    # the viewpoint's phrase ("standing at the desk, the closest chair") was read from the
+    # viewpoint clause's tokens, not these
+    if m is None or anchor is viewpoint or anchor.is_any or not anchor.categories:
+        return target
+    if not 0 < m.start < m.end <= len(tokens):
         return target
     if tokens[m.start - 1] not in ("this", "these"):
         return target

@@ -301,3 +301,11 @@ def test_a_demonstrative_points_at_the_phrase_described() -> None:
     assert ask(scene, "there are chairs next to this desk") == (1,)
     # "this" on the target itself changes nothing
     assert ask(scene, "This desk has a lamp on it.") == (2,)
+
+
+def test_a_long_viewpoint_clause_before_a_short_main_clause() -> None:
+    # the viewpoint's phrase is read from the viewpoint clause's tokens: the main clause's
+    # (shorter) tokens must not be indexed with its positions (this raised IndexError)
+    scene = _scene(KITCHEN)
+    text = "when you are standing right next to the big stove over there, the closest stool"
+    assert ask(scene, text) == (3,)
