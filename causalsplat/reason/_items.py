@@ -72,6 +72,18 @@ def _modifier(word: str, index: CategoryIndex) -> Modifier | None:
     return None
 
 
+def _introduces(
+    index: CategoryIndex, tokens: tuple[str, ...], i: int, earlier: tuple[str, ...]
+) -> bool:
+    """Whether a noun phrase starts at ``i`` whose head noun ``earlier`` does not hold."""
+    mention = mention_at(index, tokens, i) if i < len(tokens) else None
+    if mention is None:
+        return False
+    lemma = index.lexicon.lemma
+    head = lemma(tokens[mention.end - 1])
+    return all(lemma(t) != head for t in earlier)
+
+
 def _noun_phrase(mention: object, mods: list[Modifier]) -> object:
     from causalsplat.reason.parse import NounPhrase
 
@@ -92,8 +104,11 @@ def _mods_of(np: object) -> list[Modifier]:
     return out
 
 
-def read_items(tokens: tuple[str, ...], index: CategoryIndex) -> list[Item]:
-    """The items of ``tokens`` (module docstring)."""
+def read_items(
+    tokens: tuple[str, ...], index: CategoryIndex, before: tuple[str, ...] = ()
+) -> list[Item]:
+    """The items of ``tokens`` (module docstring); ``before``: the tokens said before them
+    (a viewpoint clause), which "this" may point back to."""
     joined = " ".join(tokens)
     offsets: list[int] = []
     pos = 0
@@ -144,8 +159,9 @@ def read_items(tokens: tuple[str, ...], index: CategoryIndex) -> list[Item]:
             continue
         if t in g.DETERMINERS and (
             t not in ("that", "this", "its", "their")
-            # a demonstrative right before a noun is its determiner ("this cabinet")
-            or (t == "this" and i + 1 < len(tokens) and mention_at(index, tokens, i + 1))
+            # a demonstrative right before a noun is its determiner ("this cabinet"), unless
+            # the noun was said before ("facing the couch, the lamp right of this couch")
+            or (t == "this" and _introduces(index, tokens, i + 1, (*before, *tokens[:i])))
         ):
             i += 1
             continue

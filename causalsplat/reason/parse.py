@@ -125,7 +125,7 @@ def parse_instruction(text: str, index: CategoryIndex) -> Instruction:
     tokens = tokenize(text)
     view_tokens, main_tokens = _split_viewpoint(tokens)
     viewpoint, standing = _viewpoint(view_tokens, index)
-    items = read_items(main_tokens, index)
+    items = read_items(main_tokens, index, view_tokens)
     reader = _Reader(items, viewpoint, main_tokens)
     target = reader.read()
     joined = " ".join(tokens)

@@ -301,6 +301,10 @@ def test_a_demonstrative_points_at_the_phrase_described() -> None:
     assert ask(scene, "there are chairs next to this desk") == (1,)
     # "this" on the target itself changes nothing
     assert ask(scene, "This desk has a lamp on it.") == (2,)
+    # "this" before a noun said before points back at it: the target stays
+    ins = REASONER.parse("facing the lamp, choose the desk that is under this lamp", scene)
+    assert ins.target is not None and ins.target.categories == ("desk",)
+    assert ask(scene, "facing the lamp, choose the desk that is under this lamp") == (2,)
 
 
 def test_a_long_viewpoint_clause_before_a_short_main_clause() -> None:
