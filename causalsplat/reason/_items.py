@@ -157,12 +157,10 @@ def read_items(
                 items.append(Item(i, cue.end, cue=cue))
             i = cue.end
             continue
-        if t in g.DETERMINERS and (
-            t not in ("that", "this", "its", "their")
-            # a demonstrative right before a noun is its determiner ("this cabinet"), unless
-            # the noun was said before ("facing the couch, the lamp right of this couch")
-            or (t == "this" and _introduces(index, tokens, i + 1, (*before, *tokens[:i])))
-        ):
+        # a demonstrative right before a noun is its determiner ("this cabinet"), unless the
+        # noun was said before ("facing the couch, the lamp right of this couch")
+        introduces = t == "this" and _introduces(index, tokens, i + 1, (*before, *tokens[:i]))
+        if t in g.DETERMINERS and (t not in ("that", "this", "its", "their") or introduces):
             i += 1
             continue
         if t in _POSITION_ADJECTIVES and i + 1 < len(tokens) and mention_at(index, tokens, i + 1):
