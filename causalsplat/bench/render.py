@@ -132,7 +132,7 @@ def _measure(bench: BenchScene, knobs: tuple[tuple[int | None, float], ...], rep
     exact = []
     for cam in bench.cameras:
         c = build_contributors(bench.scene, cam, config=exact_cfg, cache=False)
-        exact.append(c.matrix().astype(np.float64) @ f64)
+        exact.append(c.matrix(np.float64) @ f64)
     norm = float(np.sqrt(sum(float((e * e).sum()) for e in exact)))
     grads = [torch.randn(cam.width * cam.height, CHANNELS, generator=gen) for cam in bench.cameras]
     rows: list[dict[str, Any]] = []

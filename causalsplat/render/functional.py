@@ -129,7 +129,7 @@ def ids_from_contributors(
         (np.ones(ids.shape[0]), (np.arange(ids.shape[0]), inverse.ravel())),
         shape=(ids.shape[0], labels.shape[0]),
     )
-    per_label = (contrib.matrix().astype(np.float64) @ onehot).tocsr()
+    per_label = (contrib.matrix(np.float64) @ onehot).tocsr()
     best = np.asarray(per_label.argmax(axis=1)).ravel()
     winner = labels[best].astype(np.int64)
     alpha = contrib.alpha().ravel()
