@@ -105,10 +105,10 @@ def _project(
     """(order, depth, params, bbox): the visible Gaussians front to back, and per Gaussian
     its depth, parameter row and pixel extent (see ``project_kernel``)."""
     n = scene.n
-    status = np.zeros(n, dtype=np.int8)
-    depth = np.zeros(n)
-    params = np.zeros((n, N_PARAMS))
-    bbox = np.zeros((n, 4), dtype=np.int64)
+    status = np.empty(n, dtype=np.int8)  # the kernel sets every entry; the rest only
+    depth = np.empty(n)  # where status is VISIBLE, and is read nowhere else
+    params = np.empty((n, N_PARAMS))
+    bbox = np.empty((n, 4), dtype=np.int64)
     intrinsics = [camera.fx, camera.fy, camera.cx, camera.cy, camera.width, camera.height]
     cam = np.array([*intrinsics, config.jacobian_margin, config.low_pass], dtype=np.float64)
     rot_cw = np.ascontiguousarray(camera.R_cam_world, dtype=np.float64)
