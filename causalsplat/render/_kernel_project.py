@@ -19,8 +19,8 @@ from causalsplat.render._jit import jit
 #: (px), conic, opacity, the exponent below which alpha < alpha_min (less REJECT_MARGIN),
 #: and the chord of the ellipse ``alpha >= alpha_min`` on a pixel row ``dy`` below the
 #: centre: centred at ``MX + SHIFT * dy``, half-width ``sqrt(max(REACH - dy², 0) * SQUEEZE)``.
-MX, MY, CA, CB, CC, OPACITY, PMIN, SHIFT, REACH, SQUEEZE = range(10)
-N_PARAMS = 10
+MX, MY, CA, CB, CC, OPACITY, PMIN, SHIFT, REACH, SQUEEZE, DECAY = range(11)
+N_PARAMS = 11  # DECAY: exp(-CA), the ratio of successive exp steps along a row
 #: ``status`` values: culled (0), visible, covariance overflows float64.
 VISIBLE, OVERFLOW = 1, 2
 #: Safety margin (in units of the exponent) of the cheap rejection test ``power < PMIN``:
@@ -182,4 +182,5 @@ def project_kernel(
         params[i, SHIFT] = b / c
         params[i, REACH] = c * qmax
         params[i, SQUEEZE] = det / (c * c)
+        params[i, DECAY] = math.exp(-c / det)
         bbox[i, 0], bbox[i, 1], bbox[i, 2], bbox[i, 3] = x0, x1, y0, y1

@@ -27,6 +27,7 @@ from causalsplat.render._kernel_project import (
     CA,
     CB,
     CC,
+    DECAY,
     MX,
     MY,
     N_PARAMS,
@@ -168,8 +169,8 @@ def _composite_row(
 
     ``exp(power)`` along the row: ``power(dx + 1) = power(dx) + s(dx)`` with
     ``s(dx) = -ca dx - ca / 2 - cb dy`` and ``s(dx + 1) = s(dx) - ca``, so for a Gaussian
-    that is wide enough (``STEP_*``) it is stepped by two products per pixel from three
-    ``exp``; otherwise each pixel has its own ``exp``.
+    that is wide enough (``STEP_*``) it is stepped by two products per pixel from two
+    ``exp`` and ``DECAY = exp(-ca)``; otherwise each pixel has its own ``exp``.
     """
     alpha_min, alpha_max, t_min = rules[0], rules[1], rules[2]
     trans, drawn, done = state
@@ -189,7 +190,7 @@ def _composite_row(
             dx = (lo + 0.5) - mx
             gauss = math.exp(-0.5 * (ca * dx * dx + cc * dy * dy) - cb * dx * dy)
             factor = math.exp(-ca * dx - 0.5 * ca - cb * dy)
-            ratio = math.exp(-ca)
+            ratio = lp[j, DECAY]
         for px in range(lo, hi):
             q = px - x0
             if step:
