@@ -67,42 +67,37 @@ def tile_counts(
     it; ``bound[t + 1]`` = an upper bound of its (pixel, Gaussian) weights: the pixels of
     those extents inside the tile, at most ``cap`` per pixel.
 
-    ``image`` is (width, height, tile, tiles_x); ``order`` the visible Gaussians.
+    ``image`` is (width, height, tile width, tile height, tiles_x); ``order`` the visible
+    Gaussians.
     """
-    width, height, tile, tiles_x = image[0], image[1], image[2], image[3]
+    width, height, tw, th, tiles_x = image[0], image[1], image[2], image[3], image[4]
     for r in range(order.shape[0]):
         g = order[r]
         x0, x1, y0, y1 = bbox[g, 0], bbox[g, 1], bbox[g, 2], bbox[g, 3]
-        for ty in range(y0 // tile, (y1 - 1) // tile + 1):
-            rows = min(y1, (ty + 1) * tile) - max(y0, ty * tile)
-            for tx in range(x0 // tile, (x1 - 1) // tile + 1):
-                cols = min(x1, (tx + 1) * tile) - max(x0, tx * tile)
+        for ty in range(y0 // th, (y1 - 1) // th + 1):
+            rows = min(y1, (ty + 1) * th) - max(y0, ty * th)
+            for tx in range(x0 // tw, (x1 - 1) // tw + 1):
+                cols = min(x1, (tx + 1) * tw) - max(x0, tx * tw)
                 starts[ty * tiles_x + tx + 1] += 1
                 bound[ty * tiles_x + tx + 1] += rows * cols
     for t in range(starts.shape[0] - 1):
         tx, ty = t % tiles_x, t // tiles_x
-        pixels = (min(width, (tx + 1) * tile) - tx * tile) * (
-            min(height, (ty + 1) * tile) - ty * tile
-        )
+        pixels = (min(width, (tx + 1) * tw) - tx * tw) * (min(height, (ty + 1) * th) - ty * th)
         bound[t + 1] = min(bound[t + 1], pixels * cap)
 
 
 @jit()
 def tile_fill(
-    order: np.ndarray,
-    bbox: np.ndarray,
-    tile: int,
-    tiles_x: int,
-    starts: np.ndarray,
-    lists: np.ndarray,
+    order: np.ndarray, bbox: np.ndarray, image: np.ndarray, starts: np.ndarray, lists: np.ndarray
 ) -> None:
     """Scene indices of each tile's Gaussians at ``lists[starts[t]:starts[t + 1]]``, front
     to back (``order`` is front to back; ``starts`` the cumulative counts)."""
+    tw, th, tiles_x = image[2], image[3], image[4]
     cursor = starts[:-1].copy()
     for r in range(order.shape[0]):
         g = order[r]
-        for ty in range(bbox[g, 2] // tile, (bbox[g, 3] - 1) // tile + 1):
-            for tx in range(bbox[g, 0] // tile, (bbox[g, 1] - 1) // tile + 1):
+        for ty in range(bbox[g, 2] // th, (bbox[g, 3] - 1) // th + 1):
+            for tx in range(bbox[g, 0] // tw, (bbox[g, 1] - 1) // tw + 1):
                 t = ty * tiles_x + tx
                 lists[cursor[t]] = g
                 cursor[t] += 1
@@ -180,6 +175,8 @@ def _composite_row(
     for k in range(m):
         j = members[k]
         lo, hi = _chord(py, x0, x1, lp, j)
+        while lo < hi and done[lo - x0]:  # skip the finished pixels at its start
+            lo += 1
         if lo >= hi:
             continue
         g, opacity, pmin = li[j, 4], lp[j, OPACITY], lp[j, PMIN]
@@ -242,10 +239,11 @@ def composite_tiles(
     ``counts``, ``offsets`` (where each pixel's weights start) and ``overflow[t] = 1``
     (nothing past ``region[t + 1]`` is written) if the region was too small.
 
-    ``image``: (width, height, tile, tiles_x); ``rules``: (alpha_min, alpha_max,
-    transmittance_min); ``room``: this call's working arrays (see :func:`make_room`).
+    ``image``: (width, height, tile width, tile height, tiles_x); ``rules``: (alpha_min,
+    alpha_max, transmittance_min); ``room``: this call's working arrays (see
+    :func:`make_room`).
     """
-    width, height, tile, tiles_x = image[0], image[1], image[2], image[3]
+    width, height, tw, th, tiles_x = image[0], image[1], image[2], image[3], image[4]
     lp, li, mine, trans, drawn, done, my_index, my_weight = room
     state = (trans, drawn, done)
     for t in range(first, last):
@@ -254,9 +252,9 @@ def composite_tiles(
             continue
         _gather_tile(s, e, lists, params, bbox, lp, li)
         cursor = region[t] if mode == SCRATCH else 0
-        x0, y0 = (t % tiles_x) * tile, (t // tiles_x) * tile
-        x1 = min(x0 + tile, width)
-        for py in range(y0, min(y0 + tile, height)):
+        x0, y0 = (t % tiles_x) * tw, (t // tiles_x) * th
+        x1 = min(x0 + tw, width)
+        for py in range(y0, min(y0 + th, height)):
             m = _row_members(py, e - s, li, mine)
             _composite_row(py, x0, x1, m, mine, lp, li, rules, cap, state, my_index,
                            my_weight, mode != COUNT)  # fmt: skip
@@ -281,11 +279,13 @@ def composite_tiles(
                         out_weight[base + k] = my_weight[q, k]
 
 
-def make_room(tile: int, longest: int) -> Room:
-    """Working arrays of one :func:`composite_tiles` call for tiles of ``tile`` px whose
+def make_room(tile: int, longest: int, cap: int) -> Room:
+    """Working arrays of one :func:`composite_tiles` call for tiles ``tile`` px wide whose
     lists hold at most ``longest`` Gaussians: their parameters and widened extents (see
     :func:`_gather_tile`), the members of a row (+ 1: the branch-free fill writes one past
-    them); per pixel of a row its transmittance, count, done flag and weights."""
+    them); per pixel of a row its transmittance, count, done flag and weights (at most
+    ``min(longest, cap)``)."""
+    per_pixel = min(longest, cap)
     return (
         np.empty((longest, N_PARAMS)),
         np.empty((longest, 5), dtype=np.int64),
@@ -293,8 +293,8 @@ def make_room(tile: int, longest: int) -> Room:
         np.empty(tile),
         np.empty(tile, dtype=np.int64),
         np.empty(tile, dtype=np.bool_),
-        np.empty((tile, longest), dtype=np.int32),
-        np.empty((tile, longest), dtype=np.float32),
+        np.empty((tile, per_pixel), dtype=np.int32),
+        np.empty((tile, per_pixel), dtype=np.float32),
     )
 
 
@@ -314,11 +314,11 @@ def gather_rows(
     order. The pixels of one tile on one pixel row are consecutive rows of the CSR and
     consecutive in their tile's region, so each such run moves as one block from
     ``offsets[first pixel]`` to ``indptr[first pixel]``."""
-    width, tile, tiles_x = image[0], image[2], image[3]
+    width, tw, tiles_x = image[0], image[2], image[4]
     for py in range(first_row, last_row):
         for tx in range(tiles_x):
-            first = py * width + tx * tile
-            last = py * width + min((tx + 1) * tile, width)
+            first = py * width + tx * tw
+            last = py * width + min((tx + 1) * tw, width)
             src, dst = offsets[first], indptr[first]
             size = indptr[last] - dst
             out_index[dst : dst + size] = scratch_index[src : src + size]

@@ -29,8 +29,8 @@ class RasterConfig:
         jacobian_margin: the projection Jacobian is evaluated with ``x/z`` and ``y/z``
             clamped to the field of view widened by this fraction of the half-angle tangent
             on each side (0.3, as 3DGS), which keeps off-screen Gaussians from exploding.
-        tile_size: px, side of the square screen tiles the Gaussians are binned to
-            (performance only).
+        tile_size: px, side of the square screen tiles the numpy path bins the Gaussians
+            to (performance only; the numba kernel composites 128 x 8 px tiles row by row).
         chunk: Gaussians per vectorised step inside a tile of the numpy path (performance
             only).
         backend: who builds the contributors: ``numba`` (the compiled kernel of

@@ -49,12 +49,13 @@ KNOBS = [
     RasterConfig(max_contributors=7),
     RasterConfig(transmittance_min=0.0),
     RasterConfig(transmittance_min=0.9),
-    RasterConfig(tile_size=1),
     RasterConfig(tile_size=5),
-    RasterConfig(tile_size=64),
     RasterConfig(low_pass=0.0, alpha_max=0.5, alpha_min=0.05),
 ]
-KNOB_IDS = ["default", "cap1", "cap7", "tmin0", "tmin0.9", "tile1", "tile5", "tile64", "alpha"]
+KNOB_IDS = ["default", "cap1", "cap7", "tmin0", "tmin0.9", "numpy-tile5", "alpha"]
+#: Kernel tile shapes (width, height): single pixels, odd sizes, square, the default,
+#: wider than the image (long exp steps), tall and narrow.
+TILES = [(1, 1), (5, 3), (16, 16), (128, 8), (4096, 2), (7, 64)]
 
 
 @pytest.mark.parametrize("config", KNOBS, ids=KNOB_IDS)
@@ -65,6 +66,23 @@ def test_kernel_equals_numpy_path(seed: int, config: RasterConfig) -> None:
     fast = _build(scene, cam, config, "numba")
     assert fast.nnz > 1000
     assert_same_contributors(fast, _build(scene, cam, config, "numpy"))
+
+
+@pytest.mark.parametrize("tile", TILES, ids=[f"{w}x{h}" for w, h in TILES])
+@pytest.mark.parametrize(
+    "config", [RasterConfig(), RasterConfig(max_contributors=3)], ids=["default", "cap3"]
+)
+def test_kernel_tile_shape_changes_nothing(
+    monkeypatch: pytest.MonkeyPatch, tile: tuple[int, int], config: RasterConfig
+) -> None:
+    from causalsplat.render import _kernel
+
+    scene = make_random_scene(4, n=300, extent=1.0, scale_range=(0.01, 0.6))
+    cam = make_camera(61, 37)
+    numpy_path = _build(scene, cam, config, "numpy")
+    monkeypatch.setattr(_kernel, "TILE_WIDTH", tile[0])
+    monkeypatch.setattr(_kernel, "TILE_HEIGHT", tile[1])
+    assert_same_contributors(_build(scene, cam, config, "numba"), numpy_path)
 
 
 @pytest.mark.parametrize(
@@ -82,9 +100,9 @@ def test_kernel_matches_reference_at_the_extremes_of_the_rules(
 
 @pytest.mark.parametrize(
     "config",
-    [RasterConfig(tile_size=64), RasterConfig(alpha_min=1e-12), RasterConfig(alpha_min=1e-280),
-     RasterConfig(alpha_min=0.2, tile_size=7), RasterConfig(low_pass=0.0, tile_size=32)],
-    ids=["tile64", "alpha_min1e-12", "alpha_min1e-280", "alpha_min0.2", "no-lowpass"],
+    [RasterConfig(), RasterConfig(alpha_min=1e-12), RasterConfig(alpha_min=1e-280),
+     RasterConfig(alpha_min=0.2), RasterConfig(low_pass=0.0)],
+    ids=["default", "alpha_min1e-12", "alpha_min1e-280", "alpha_min0.2", "no-lowpass"],
 )  # fmt: skip
 def test_exp_stepped_along_rows_matches_reference_and_numpy(config: RasterConfig) -> None:
     """Wide Gaussians (x-curvature below STEP_MAX_CA) take the stepped exp along their
