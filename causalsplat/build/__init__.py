@@ -6,7 +6,7 @@ a JSON config file. Importing this package does not import torch.
 """
 
 from causalsplat.build.config import BuildConfig, BuildConfigError
-from causalsplat.build.errors import BuildError, CoverageError
+from causalsplat.build.errors import BuildError, CoverageError, StageError
 from causalsplat.build.folder import SceneFolder, SceneFolderFormatError, read_scene_folder
 from causalsplat.build.pipeline import BuildResult, StageReport, build_scene
 
@@ -18,6 +18,7 @@ __all__ = [
     "CoverageError",
     "SceneFolder",
     "SceneFolderFormatError",
+    "StageError",
     "StageReport",
     "build_scene",
     "read_scene_folder",

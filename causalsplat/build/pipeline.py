@@ -13,6 +13,10 @@ Stages, each timed (wall seconds and the process's peak RSS after it):
 the raster and field options; ``instances`` under that key and its own options. A re-run
 with changed instance, node or edge options therefore reuses the field; changing only
 node or edge options reuses the instances too. ``graph`` is cheap and always runs.
+
+A stage that fails for a reason no check foresaw (an exception that is not a
+:class:`~causalsplat.errors.CausalSplatError`) raises :class:`StageError`: one line that
+names the folder and the stage, chained to the original, and nothing is stored.
 """
 
 from __future__ import annotations
@@ -31,8 +35,9 @@ import numpy as np
 from causalsplat.build.cache import StageCache, cache_key, default_cache_dir, pack_csr, unpack_csr
 from causalsplat.build.config import BuildConfig
 from causalsplat.build.coverage import Coverage, measure_coverage
-from causalsplat.build.errors import BuildError, CoverageError
+from causalsplat.build.errors import BuildError, CoverageError, StageError
 from causalsplat.build.folder import SceneFolder, read_scene_folder
+from causalsplat.errors import CausalSplatError
 from causalsplat.field import (
     FeatureField,
     MaskEvidence,
@@ -136,13 +141,24 @@ def _peak_rss_mib() -> float:
 
 
 class _Stages:
-    def __init__(self) -> None:
+    """Times the stages of one build; ``where`` (the scene folder) names it in errors."""
+
+    def __init__(self, where: str) -> None:
+        self.where = where
         self.reports: list[StageReport] = []
 
     @contextmanager
     def stage(self, name: str, cached: bool = False) -> Iterator[None]:
+        """Time the block as stage ``name``. An exception in it that is not a
+        :class:`~causalsplat.errors.CausalSplatError` (those already say what went wrong)
+        becomes a :class:`StageError` naming the folder and the stage, chained to it."""
         start = time.perf_counter()
-        yield
+        try:
+            yield
+        except CausalSplatError:
+            raise
+        except Exception as exc:
+            raise StageError(self.where, name, exc) from exc
         self.reports.append(StageReport(name, time.perf_counter() - start, cached, _peak_rss_mib()))
 
 
@@ -163,11 +179,13 @@ def build_scene(
     no cache. ``progress`` shows progress bars on stderr. ``labeler`` names the entities
     from their crops (default: the VLM one when ``config.labeler == "vlm"``, else none:
     the mask vote stands). Raises :class:`~causalsplat.errors.InputFormatError` (subclasses
-    name the file) for a malformed folder or config, and the VLM errors of the labeller.
+    name the file) for a malformed folder or config, :class:`BuildError` when there is
+    nothing to build from, the VLM errors of the labeller, and :class:`StageError` (a
+    :class:`BuildError`, one line naming the stage) for any other failure inside a stage.
     """
     config = config or BuildConfig()
     cache = StageCache(default_cache_dir() if cache_dir is True else (cache_dir or None))
-    stages = _Stages()
+    stages = _Stages(str(path))
     with stages.stage("load"):
         folder = read_scene_folder(
             path, max_views=config.max_views, allow_distortion=config.allow_distortion

@@ -1,17 +1,24 @@
-"""Mask commands: ``masks convert`` (masks people have into the canonical form)."""
+"""Mask commands: ``masks convert`` (masks people have into the canonical form) and
+``masks generate`` (SAM or SAM 2 run here on a folder of images, from the user's checkpoint)."""
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 
 from causalsplat.cli._app import cli, echo_json, fail, json_option
 
+if TYPE_CHECKING:
+    from causalsplat.masks.generate import ImageDone
+
 
 @cli.group("masks")
 def masks() -> None:
-    """Masks people have (SAM / SAM 2 JSON, label maps, uint8 stacks) in the canonical form."""
+    """Masks people have (SAM / SAM 2 JSON, label maps, uint8 stacks) in the canonical form,
+    and SAM / SAM 2 run on images from a checkpoint you have."""
 
 
 @masks.command("convert")
@@ -50,3 +57,61 @@ def convert(
     if report.labelled_views < report.views:
         click.echo("note: masks without labels build entities of unknown category: add labels"
                    " or build with --labeler vlm", err=True)  # fmt: skip
+
+
+def _show_progress(done: ImageDone) -> None:
+    click.echo(f"masks generate: {done.index}/{done.total} {Path(done.image).name}:"
+               f" {done.masks} masks ({done.seconds:.1f} s)", err=True)  # fmt: skip
+    sys.stderr.flush()
+
+
+@masks.command("generate")
+@click.argument("images", type=click.Path(file_okay=False, path_type=Path))
+@click.option("-o", "--output", type=click.Path(file_okay=False, path_type=Path), required=True,
+              help="Folder to write <image stem>.json into (SAM's JSON, COCO RLE).")  # fmt: skip
+@click.option("--checkpoint", type=click.Path(dir_okay=False, path_type=Path), required=True,
+              help="The model's weights file (yours: nothing is downloaded).")  # fmt: skip
+@click.option("--model", default="vit_b", show_default=True,
+              help="The checkpoint's architecture: vit_b, vit_l, vit_h (SAM) or"
+                   " sam2.1_hiera_t|s|b+|l, sam2_hiera_t|s|b+|l (SAM 2).")  # fmt: skip
+@click.option("--points-per-side", type=int, default=None,
+              help="Prompt grid points per side (default 32).")  # fmt: skip
+@click.option("--points-per-batch", type=int, default=None,
+              help="Prompts decoded at once (default 64).")  # fmt: skip
+@click.option("--pred-iou-thresh", type=float, default=None,
+              help="Drop masks of lower predicted IoU, in [0, 1] (default 0.88).")  # fmt: skip
+@click.option("--stability-score-thresh", type=float, default=None,
+              help="Drop less stable masks, in [0, 1] (default 0.95).")  # fmt: skip
+@click.option(
+    "--box-nms-thresh",
+    type=float,
+    default=None,
+    help="Box IoU above which the weaker mask is dropped, in [0, 1] (default 0.7).",
+)
+@click.option("--crop-n-layers", type=int, default=None,
+              help="Also segment 2^k x 2^k crops for k = 1..N (default 0).")  # fmt: skip
+@click.option(
+    "--min-mask-region-area",
+    type=int,
+    default=None,
+    help="Remove holes and islands below this many pixels; needs OpenCV (default 0).",
+)
+@click.option("--device", default="cpu", show_default=True, help="torch device to run on.")
+@json_option
+def generate(
+    images: Path, output: Path, checkpoint: Path, model: str, device: str, as_json: bool,
+    **options: int | float | None,
+) -> None:  # fmt: skip
+    """Run SAM's (or SAM 2's) automatic mask generator on every .png/.jpg of IMAGES and write
+    OUTPUT/<stem>.json as SAM's amg.py --convert-to-rle does, for `masks convert`. One line
+    per image goes to stderr."""
+    from causalsplat.masks.generate import GenerateConfig, generate_masks
+
+    config = GenerateConfig(**{k: v for k, v in options.items() if v is not None})
+    report = generate_masks(images, output, checkpoint, model=model, config=config,
+                            device=device, progress=_show_progress)  # fmt: skip
+    if as_json:
+        echo_json(report.to_json())
+        return
+    click.echo(f"wrote {report.views} views ({report.masks} masks, {report.model} on"
+               f" {report.device}, {report.seconds:.1f} s) to {report.output}")  # fmt: skip

@@ -22,8 +22,8 @@
    through an occluder, whose masks they vote for) and active Gaussians still unassigned
    take their entity from the well-seen ones along the surface graph (edges at most
    ``propagate_sigmas`` median scales long; see :mod:`causalsplat.instances.propagate`).
-   Those the graph does not connect to any well-seen Gaussian keep their vote, or stay -1;
-   pruned Gaussians stay -1.
+   Those the graph does not connect to any well-seen Gaussian (or connects by weights too
+   small to carry a probability) keep their vote, or stay -1; pruned Gaussians stay -1.
 Entity ids are 0..K-1 in the order of each cluster's first mask (view order, then mask
 order), so they do not depend on HDBSCAN's label numbering.
 """

@@ -24,6 +24,21 @@ seen from. Its label is better read from the surface it lies on. This module doe
    function of Zhu, Ghahramani and Lafferty, 2003: one sparse linear solve), and takes the
    most probable entity. Gaussians whose component of the graph holds no fixed Gaussian
    keep the label they had.
+
+**Degenerate graphs** never make the solve fail (:mod:`causalsplat.instances._absorb`).
+Weights that are not finite and positive (an ``exp`` that underflowed to 0, a NaN) are no
+edges; the weights are rescaled by a power of two, so tiny or huge ones neither underflow
+nor overflow. Near-duplicate Gaussians (densified scenes: copies of one Gaussian a tiny
+jitter apart) make clusters whose edges to the rest of the surface weigh ``1e-100`` and
+less: such a nearly closed part of the graph is singular in floating point
+(``1 + 1e-100 == 1``). It is solved with a tiny killing rate added (``1e-10`` of each
+Gaussian's degree): the walk mixes over the cluster before it leaves, so the cluster takes
+the entity with the most weight out of it, the limit of the exact answer. Everything else
+is solved exactly, as before; an exact solution is checked (each Gaussian's
+probabilities must sum to 1) and its component solved again regularised when it fails.
+A Gaussian whose probabilities underflow to 0 keeps its label, like one whose component
+holds no fixed Gaussian. With ``k`` or more copies of a Gaussian its ``k`` neighbours may
+all be copies: such a cluster has no edge out at all and keeps its labels.
 """
 
 from __future__ import annotations
@@ -31,9 +46,9 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
-from scipy.sparse.linalg import splu
 from scipy.spatial import cKDTree
 
+from causalsplat.instances._absorb import absorbing_labels
 from causalsplat.io._geometry import quat_to_rotmat
 
 
@@ -99,13 +114,14 @@ def _plane_offsets(
     return e
 
 
-def harmonic_labels(graph: sp.csr_matrix, labels: np.ndarray, fixed: np.ndarray) -> np.ndarray:
+def harmonic_labels(graph: sp.spmatrix, labels: np.ndarray, fixed: np.ndarray) -> np.ndarray:
     """Labels of the non-fixed nodes by the harmonic function on ``graph`` (step 2).
 
-    ``labels`` (N,) int, ``fixed`` (N,) bool: nodes whose label (>= 0) is kept and spread.
+    ``graph`` (N, N) weights (a weight that is not finite and positive is no edge);
+    ``labels`` (N,) int; ``fixed`` (N,) bool: nodes whose label (>= 0) is kept and spread.
     Returns a copy of ``labels`` in which every non-fixed node of a graph component holding
     a fixed node takes the entity a random walk from it most likely reaches first (ties:
-    the smaller label).
+    the smaller label). Never raises on degenerate graphs (module docstring).
     """
     labels = np.asarray(labels, dtype=np.int64)
     fixed = np.asarray(fixed, dtype=bool) & (labels >= 0)
@@ -114,7 +130,7 @@ def harmonic_labels(graph: sp.csr_matrix, labels: np.ndarray, fixed: np.ndarray)
     known = np.flatnonzero(fixed)
     if free.size == 0 or known.size == 0:
         return out
-    rows = graph[free]
+    rows = _edge_weights(graph)[free]
     w_ff = rows[:, free].tocsr()
     boundary = rows[:, known].tocsr()
     n_comp, comp = connected_components(w_ff, directed=False)
@@ -128,9 +144,21 @@ def harmonic_labels(graph: sp.csr_matrix, labels: np.ndarray, fixed: np.ndarray)
         (np.ones(known.size), (np.arange(known.size), labels[known])),
         shape=(known.size, n_labels),
     )
-    rhs = (boundary[solve] @ onehot).toarray()
     degree = np.asarray(rows[solve].sum(axis=1)).ravel()
-    laplacian = (sp.diags(degree) - w_ff[solve][:, solve]).tocsc()
-    prob = splu(laplacian).solve(rhs)
-    out[free[solve]] = prob.argmax(axis=1)
+    laplacian = sp.diags(degree) - w_ff[solve][:, solve]
+    best = absorbing_labels(laplacian, boundary[solve] @ onehot, degree, comp[solve])
+    reached = best.label >= 0
+    out[free[solve[reached]]] = best.label[reached]
     return out
+
+
+def _edge_weights(graph: sp.spmatrix) -> sp.csr_matrix:
+    """``graph`` as float64 CSR without its non-edges (weights not finite and positive),
+    scaled by a power of two (exactly) so that its largest weight lies in [0.5, 1): a
+    graph of tiny or huge weights then neither underflows nor overflows in the solve."""
+    weights = sp.csr_matrix(graph, dtype=np.float64, copy=True)
+    weights.data[~(np.isfinite(weights.data) & (weights.data > 0))] = 0.0
+    weights.eliminate_zeros()
+    if weights.nnz:
+        weights.data = np.ldexp(weights.data, -int(np.frexp(weights.data.max())[1]))
+    return weights

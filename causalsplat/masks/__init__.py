@@ -1,7 +1,9 @@
 """2D masks per view: the :class:`MaskSet` type, its ``.npz`` file format, GT masks from
 instance-id renders, and a documented SAM-like noise model (:mod:`causalsplat.masks.noise`).
+Masks other tools wrote are read by :mod:`causalsplat.masks.convert`; SAM or SAM 2 run here
+from a checkpoint the user has through :mod:`causalsplat.masks.generate`.
 
-numpy/scipy only (no torch).
+numpy/scipy only: ``generate`` imports torch and the model's package when it runs.
 """
 
 from causalsplat.masks.files import read_mask_dir, read_masks, write_masks, write_npz

@@ -99,12 +99,18 @@ FUNCTION_WORDS = frozenset({
     "under", "between", "middle", "center", "centre", "side", "top", "bottom", "set", "put",
 })  # fmt: skip
 #: What makes a request about an action or a need ("where can I ...", "something to ...").
+#: "to" as the mark of an infinitive ("something to sit on"), not the preposition of a
+#: place ("the thing to the left of the fridge").
+_INFINITIVE_TO = r"to\b(?! (?:the|a|an|this|that|these|those|its|his|her|their|our|your|my)\b)"
 ACTION_TRIGGERS = re.compile(
     r"\b(?:can|could|may|should|might) (?:i|we|you|one|someone)\b|"
     r"\b(?:something|somewhere|anything|anywhere|someplace|place|thing|things|stuff|"
-    r"objects?|items?)(?: [a-z]+)? (?:to|for)\b|"
+    rf"objects?|items?)(?: [a-z]+)? (?:{_INFINITIVE_TO}|for\b)|"
     r"\b(?:something|somewhere|anything|anywhere|someplace|place|thing|things|stuff|"
-    r"objects?|items?|what|where) (?:to|that|which|for|i|you)\b|"
+    rf"objects?|items?|what|where) (?:{_INFINITIVE_TO}|(?:for|i|you)\b)|"
+    # "something that ...", but not "the thing that is left of the fridge"
+    r"(?<!the )\b(?:something|somewhere|anything|anywhere|someplace|place|thing|things|"
+    r"stuff|objects?|items?|what|where) (?:that|which)\b|"
     r"\b(?:i|we) (?:want|need|would like|wanna|have|am going) to\b|"
     r"\b(?:used|good|useful) (?:to|for)\b|"
     r"\b(?:i|we)(?: really| just| also| still| now| badly)? (?:need|want|require|desire|"
@@ -118,7 +124,8 @@ PURPOSE_FRAMES = re.compile(
     r"\b(?:want|wants|need|needs|like|wanna|going|have|has|trying|try|hoping|hope|wish|"
     r"plan|planning) to\b|"
     r"\b(?:something|somewhere|anything|anywhere|someplace|place|spot|thing|things|stuff|"
-    r"way|item|items|object|objects)(?: [a-z]+)? (?:to|for|that i can|i can|we can)\b|"
+    r"way|item|items|object|objects)(?: [a-z]+)? "
+    rf"(?:{_INFINITIVE_TO}|(?:for|that i can|i can|we can)\b)|"
     r"\b(?:need|needs|want|wants|use) (?:it|them|one) (?:to|for)\b|\bwhere to\b|"
     r"\b(?:used|good|useful|meant|made) (?:to|for)\b|\bin order to\b|\bso (?:that )?i can\b"
 )

@@ -23,6 +23,8 @@ _SIDE_CUES = {"side_left": "left", "side_right": "right", "side_middle": "middle
 #: Place cues: where in the room ("in the corner", "in the middle of the room") or apart
 #: from the others of its kind ("by itself") a thing stands; modifiers of the target.
 _PLACE_CUES = {"place_corner": "corner", "place_centre": "centre", "place_alone": "alone"}
+#: Nouns of position that, right before a noun, single out the highest or lowest of its kind.
+_POSITION_ADJECTIVES = {"top": "highest", "bottom": "lowest"}
 
 
 @dataclass(frozen=True, slots=True)
@@ -140,7 +142,17 @@ def read_items(tokens: tuple[str, ...], index: CategoryIndex) -> list[Item]:
                 items.append(Item(i, cue.end, cue=cue))
             i = cue.end
             continue
-        if t in g.DETERMINERS and t not in ("that", "this", "its", "their"):
+        if t in g.DETERMINERS and (
+            t not in ("that", "this", "its", "their")
+            # a demonstrative right before a noun is its determiner ("this cabinet")
+            or (t == "this" and i + 1 < len(tokens) and mention_at(index, tokens, i + 1))
+        ):
+            i += 1
+            continue
+        if t in _POSITION_ADJECTIVES and i + 1 < len(tokens) and mention_at(index, tokens, i + 1):
+            # "the bottom shelf", "the top picture": a position word used as an adjective
+            metric, direction = g.EXTREMES[_POSITION_ADJECTIVES[t]]
+            pending.append((i, Modifier("extreme", t, direction=direction, metric=metric)))
             i += 1
             continue
         mention = mention_at(index, tokens, i)

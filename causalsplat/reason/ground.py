@@ -22,7 +22,9 @@ How the two signals combine, by what the instruction's target is:
   lexicon score. Stage 1 reads a need whose target scores below :data:`NAMED` or sits in
   the purpose clause as an intent.
 * **intent**: a need or purpose ("I need a place to keep my food cold", "where can I heat
-  up soup?", "I'm thirsty"). Every category gets ``meaning - PATIENT * acted_on``, where
+  up soup?", "I'm thirsty"; a bodily state said of someone is read as what it calls for,
+  "I am cold" as a need to keep warm, so that a fridge does not meet it). Every category
+  gets ``meaning - PATIENT * acted_on``, where
   ``acted_on`` is the lexicon score of the category when the purpose clause names it as
   the direct object of its verb: that is what the need acts on, not what it asks for
   ("hang my towels" asks for a rack, "decorate the walls" for a picture; "sit on the
@@ -47,6 +49,7 @@ When the best score is below :data:`FITS`, nothing is taken: the answer is an ex
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
 
@@ -285,7 +288,7 @@ class Grounder:
             for con in (() if ins.target is None else ins.target.constraints)
             if con.anchors and all(is_named(a) for a in con.anchors)
         ]
-        query = _without_relations(ins, constraints)
+        query = _with_states(_without_relations(ins, constraints), ins.main_tokens)
         acted = self.acted_on(ins)
         # a category is scored without the words that name it as what the need acts on:
         # "somewhere to put my cup down" does not ask for a cup
@@ -447,6 +450,30 @@ def need_words(ins: Instruction) -> tuple[str, ...]:
     if tail and tail[-1] in PARTICLES and (not words or words[-1] != tail[-1]):
         words.append(tail[-1])
     return tuple(words) or ins.action
+
+
+#: Words that predicate a state of someone ("I am cold", "it is so dark", "I feel tired").
+_PREDICATING = frozenset({"am", "is", "are", "feel", "feels", "feeling", "get", "getting",
+                          "got", "become", "was", "were"})  # fmt: skip
+_DEGREE = frozenset({"so", "very", "too", "really", "quite", "a", "bit", "little", "pretty",
+                     "kind", "of", "super", "freaking", "extremely"})  # fmt: skip
+
+
+def _with_states(query: str, tokens: tuple[str, ...]) -> str:
+    """The need's text with what each bodily state it predicates calls for ("I am cold" ->
+    "I am cold; I want to keep warm"): a state word said of someone, not of a thing ("keep
+    my food cold" is no state of the speaker, and a fridge is no way to keep warm)."""
+    wants = []
+    for i, t in enumerate(tokens):
+        if t not in STATES:
+            continue
+        j = i - 1
+        while j >= 0 and tokens[j] in _DEGREE:
+            j -= 1
+        if j >= 0 and tokens[j] in _PREDICATING and STATES[t] not in wants:
+            wants.append(STATES[t])
+            query = re.sub(rf"\b{t}\b", f"in need to {STATES[t]}", query)
+    return query
 
 
 def _without_relations(ins: Instruction, constraints: Iterable[Constraint]) -> str:

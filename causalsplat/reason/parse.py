@@ -157,19 +157,32 @@ def parse_instruction(text: str, index: CategoryIndex) -> Instruction:
                            main_tokens=main_tokens)  # fmt: skip
     if target is None:
         target = NounPhrase(None)
+    elif not wh:
+        target = _demonstrated(target, main_tokens, viewpoint)
     if joined.startswith("how many"):
         kind = "count"
     elif main_tokens[:2] in (("is", "there"), ("are", "there")):
         kind = "exists"
-    elif (wh and _set_question(main_tokens, target)) or (
-        target.is_any and any(t in ("all", "every", "everything") for t in main_tokens)
-    ):
+    elif (wh and _set_question(main_tokens, target)) or _quantified(main_tokens, target):
         kind = "set"
     else:
         kind = "refer"
     closure = kind == "set" and bool(g.CLOSURE_TRIGGERS.search(joined))
     return Instruction(text, tokens, kind, target, viewpoint=viewpoint, standing_at=standing,
                        closure=closure)  # fmt: skip
+
+
+#: Words that ask for every entity that qualifies ("all the stools at the counter").
+_UNIVERSAL = frozenset({"all", "every", "each", "everything", "both"})
+
+
+def _quantified(tokens: tuple[str, ...], target: NounPhrase) -> bool:
+    """Whether a universal quantifier governs the target: before its noun ("all the seats
+    at the table", "every pillow on the bed"), or anywhere when the target is any entity
+    ("everything on the desk")."""
+    if target.is_any or target.mention is None:
+        return any(t in _UNIVERSAL for t in tokens)
+    return any(t in _UNIVERSAL for t in tokens[: target.mention.start])
 
 
 #: Lowest lexicon score of a mention that names a category (see ``ground.NAMED``).
@@ -606,6 +619,35 @@ _INVERSE = {
     "below": "above", "inside": "contains", "contains": "inside", "left_of": "right_of",
     "right_of": "left_of", "in_front_of": "behind", "behind": "in_front_of",
 }  # fmt: skip
+#: Relations that read the other way round ("A above B" is "B below A").
+_TURNABLE = frozenset({*_INVERSE, "near"})
+
+
+def _demonstrated(
+    target: NounPhrase, tokens: tuple[str, ...], viewpoint: NounPhrase | None
+) -> NounPhrase:
+    """The phrase a demonstrative points at is the one described: "there are plants next to
+    this cabinet" describes the cabinet (near the plants), "there is no dispenser above
+    this trash can" the trash can (not below a dispenser). Only a target with that one
+    relation, whose one anchor follows "this" / "these", is turned round."""
+    if len(target.constraints) != 1 or target.mention is None or target.is_any:
+        return target
+    (c,) = target.constraints
+    if len(c.anchors) != 1 or c.kind not in _TURNABLE:
+        return target
+    (anchor,) = c.anchors
+    m = anchor.mention
+    # the viewpoint's phrase ("standing at the desk, the closest chair") was read from the
+    # viewpoint clause's tokens, not these
+    if m is None or anchor is viewpoint or anchor.is_any or not anchor.categories:
+        return target
+    if not 0 < m.start < m.end <= len(tokens):
+        return target
+    if tokens[m.start - 1] not in ("this", "these"):
+        return target
+    described = replace(target, constraints=())
+    turned = Constraint(_inverse(c.kind), (described,), negated=c.negated, span=c.span)
+    return replace(anchor, constraints=(*anchor.constraints, turned))
 
 
 def _inverse(kind: str) -> str:

@@ -10,7 +10,9 @@ Relations, by kind (the singular case is a referring expression that must name o
 * stored relations (``supported_by``, ``supports``, ``above``, ``below``, ``inside``,
   ``contains``): ``relate``. When a singular phrase selects nothing, the relation is
   relaxed along :data:`RELAXATIONS` (``above`` -> ``supported_by`` -> ``near``) and finally
-  to the candidate closest to the anchor; each relaxation is noted for the explanation.
+  to the candidate closest to the anchor, or, when the phrase has a selector of its own
+  ("the highest picture on the wall"), to every candidate, for the selector to choose
+  from; each relaxation is noted for the explanation.
 * ``near`` / ``next to`` / ``beside``: for a singular phrase with no other selector,
   the candidate closest to the anchor (``argmin`` distance: Sr3D's reading of these
   words); otherwise the stored ``near`` relation.
@@ -217,7 +219,7 @@ class Planner:
             out = b.add(Op.RELATE, step, a[0], relation=RelationType.SUPPORTS)
             if b.size(out) == 0:
                 out = b.add(Op.RELATE, step, a[0], relation=RelationType.NEAR)
-            return self._fallback(step, out, a[0], "with", singular=singular)
+            return self._fallback(step, out, a[0], "with", singular=singular, selectors=selectors)
         relation = "near" if kind == "near" else kind
         out = b.add(
             Op.RELATE, step, a[0], relation=RelationType(relation), viewpoint=self._viewpoint(kind)
@@ -237,12 +239,20 @@ class Planner:
             else:
                 b.note(f"nothing is {_WORDS[kind]} it; read as {_WORDS[relation]!r} instead")
             return relaxed
-        return self._fallback(step, out, a[0], kind, singular=singular)
+        return self._fallback(step, out, a[0], kind, singular=singular, selectors=selectors)
 
-    def _fallback(self, step: int, out: int, anchor: int, kind: str, *, singular: bool) -> int:
+    def _fallback(
+        self, step: int, out: int, anchor: int, kind: str, *, singular: bool, selectors: bool
+    ) -> int:
+        """What a singular phrase keeps when its relation selects nothing: with a selector
+        of its own ("the top picture on the wall"), every candidate, for the selector to
+        choose from; else the candidate closest to the anchor."""
         b = self.b
         if not singular or b.size(out) > 0:
             return out
+        if selectors:
+            b.note(f"nothing is {_WORDS.get(kind, kind)} it; the relation was not used")
+            return step
         b.note(f"nothing is {_WORDS.get(kind, kind)} it; took the closest instead")
         return b.add(Op.ARGMIN, step, anchor, metric=Metric.DISTANCE)
 

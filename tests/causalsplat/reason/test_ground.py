@@ -238,3 +238,32 @@ def test_query_adapter_moves_the_query_only() -> None:
     assert plain[0] == pytest.approx(1.0) and adapted[1] == pytest.approx(1.0)
     with pytest.raises(ValueError, match="adapter must be"):
         EmbeddingMeaning(Fixed(), adapter="learned")
+
+
+def test_a_state_said_of_someone_is_read_as_what_it_calls_for() -> None:
+    from causalsplat.reason._text import tokenize
+    from causalsplat.reason.ground import _with_states
+
+    def read(text: str) -> str:
+        return _with_states(text, tokenize(text))
+
+    assert read("I am so cold") == "I am so in need to keep warm"
+    assert read("my hands are dirty") == "my hands are in need to wash"
+    # said of a thing, not of someone: left as it is
+    assert read("I need a place to keep my food cold") == "I need a place to keep my food cold"
+    assert read("where do the dirty clothes go") == "where do the dirty clothes go"
+
+
+@pytest.mark.skipif(not embeddings_available(), reason="embed extra not installed")
+def test_being_cold_asks_for_warmth_not_for_what_is_cold() -> None:
+    scene = _scene(
+        (1, "refrigerator", (0, 3, 0.9)),
+        (2, "radiator", (4, 0, 0.4)),
+        (3, "table", (2, 2, 0.4)),
+        (4, "sink", (0, 0, 0.9)),
+    )
+    reasoner = OfflineReasoner(embeddings=True)
+    assert reasoner.answer("I am freezing", scene).categories == ("radiator",)
+    assert reasoner.answer("I need a place to keep my food cold", scene).categories == (
+        "refrigerator",
+    )

@@ -224,3 +224,91 @@ def test_across_from_reads_as_the_one_closest_to_the_anchor() -> None:
     scene = _scene(KITCHEN)
     assert ask(scene, "the stool across from the stove") == (3,)
     assert ask(scene, "the stool opposite the bookshelf") == (4,)
+
+
+def test_a_relation_that_selects_nothing_leaves_the_choice_to_the_phrase_s_selector() -> None:
+    # pictures hang in front of the wall (no support edge); "the highest picture on the wall"
+    # is the highest, not the one closest to the wall, and without a selector of its own the
+    # phrase still takes the closest
+    boxes: list[Box] = [
+        (1, "wall", (0.0, 0.0, 1.5), (6.0, 0.1, 3.0)),
+        (2, "picture", (-1.0, 0.15, 1.2), (0.5, 0.05, 0.4)),
+        (3, "picture", (2.5, 0.25, 2.2), (0.5, 0.05, 0.4)),
+        (4, "picture", (0.2, 0.12, 1.4), (0.5, 0.05, 0.4)),
+    ]
+    scene = _scene(boxes)
+    answer = REASONER.answer("the highest picture on the wall", scene)
+    assert answer.entity_ids == (3,)
+    assert "the relation was not used" in answer.explanation
+    assert ask(scene, "the picture on the wall") == (4,)
+
+
+def test_top_and_bottom_before_a_noun_single_out_the_highest_and_lowest() -> None:
+    boxes: list[Box] = [
+        (1, "shelf", (0.0, 0.0, 1.0), (1.0, 0.4, 2.0)),
+        (2, "box", (0.0, 0.0, 0.3), (0.4, 0.3, 0.3)),
+        (3, "box", (0.1, 0.0, 1.1), (0.4, 0.3, 0.3)),
+        (4, "box", (-0.1, 0.0, 1.8), (0.4, 0.3, 0.3)),
+    ]
+    scene = _scene(boxes)
+    assert ask(scene, "the bottom box") == (2,)
+    assert ask(scene, "pick the top box") == (4,)
+    # a noun of position elsewhere stays a noun: "on top of the shelf" is a relation
+    ins = REASONER.parse("the box on top of the shelf", scene)
+    assert ins.target is not None and ins.target.extremes == ()
+
+
+@pytest.mark.parametrize(
+    ("text", "kind"),
+    [
+        ("the thing to the left of the stove", "refer"),
+        ("something to the right of the bookshelf", "refer"),
+        ("the thing that is next to the stove", "refer"),
+        ("something to sit on", "action"),
+        ("hand me the thing to sit on next to the stove", "action"),
+        ("something that I can sit on", "action"),
+        ("I need a place to put my books", "action"),
+    ],
+)
+def test_to_of_a_place_is_no_purpose(text: str, kind: str) -> None:
+    # "to" before a determiner is the preposition of a place, not the mark of a purpose
+    assert REASONER.parse(text, _scene(KITCHEN)).kind == kind
+
+
+def test_a_universal_quantifier_asks_for_every_entity_that_qualifies() -> None:
+    scene = _scene(KITCHEN)
+    # both stools stand near something; "the stool near the stove" is one of them
+    assert ask(scene, "the stool next to the stove") == (3,)
+    assert REASONER.parse("all the stools", scene).kind == "set"
+    assert ask(scene, "all the stools") == (3, 4)
+    assert ask(scene, "every chair") == (6, 7)
+    assert REASONER.parse("each stool next to the stove", scene).kind == "set"
+    # a quantifier after the target's noun does not govern it
+    assert REASONER.parse("the stool that is closest to all the chairs", scene).kind == "refer"
+
+
+def test_a_demonstrative_points_at_the_phrase_described() -> None:
+    # "there is a lamp on this desk" describes the desk, not the lamp
+    boxes: list[Box] = [
+        (1, "desk", (0.0, 0.0, 0.4), (1.2, 0.6, 0.8)),
+        (2, "desk", (3.0, 0.0, 0.4), (1.2, 0.6, 0.8)),
+        (3, "lamp", (3.2, 0.0, 1.0), (0.2, 0.2, 0.4)),
+        (4, "chair", (0.0, 1.0, 0.45), (0.5, 0.5, 0.9)),
+    ]
+    scene = _scene(boxes)
+    assert ask(scene, "There is a lamp on this desk.") == (2,)
+    assert ask(scene, "There is no lamp on this desk.") == (1,)
+    assert ask(scene, "there are chairs next to this desk") == (1,)
+    # "this" on the target itself changes nothing
+    assert ask(scene, "This desk has a lamp on it.") == (2,)
+
+
+def test_a_long_viewpoint_clause_before_a_short_main_clause() -> None:
+    # the viewpoint's phrase is read from the viewpoint clause's tokens: the main clause's
+    # (shorter) tokens must not be indexed with its positions (this raised IndexError)
+    scene = _scene(KITCHEN)
+    text = (
+        "When standing in the middle of the kitchen looking at the stools, pick the one on "
+        "top of it."
+    )
+    assert len(ask(scene, text)) == 1
