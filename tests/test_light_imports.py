@@ -16,7 +16,9 @@ import causalsplat.build, causalsplat.field, causalsplat.instances, causalsplat.
 from causalsplat import open_store
 with open_store("sqlite://") as store:
     store.scenes()
-heavy = sorted(m for m in ("torch", "hdbscan", "plyfile", "openai") if m in sys.modules)
+heavy = sorted(
+    m for m in ("torch", "hdbscan", "plyfile", "openai", "numba") if m in sys.modules
+)
 print(",".join(heavy))
 """
 

@@ -192,8 +192,8 @@ def build_scene(
         )
         hashes = {k: v for k, v in folder.input_hashes().items() if not k.startswith("gt/")}
         coverage = check_coverage(folder, config)
-    field_key = cache_key(CACHE_VERSION, hashes, config.to_json()["raster"],
-                          config.to_json()["field"])  # fmt: skip
+    raster = {k: v for k, v in config.to_json()["raster"].items() if k != "threads"}  # speed only
+    field_key = cache_key(CACHE_VERSION, hashes, raster, config.to_json()["field"])
     field, evidence = _field_stage(folder, config, cache, field_key, stages, progress)
     if evidence.n == 0:
         raise BuildError(

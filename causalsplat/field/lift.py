@@ -119,7 +119,7 @@ def mask_evidence(field: FeatureField, views: LiftedViews) -> MaskEvidence:
     for contrib, vm in zip(views.contributors, views.masks, strict=True):
         if vm.n_masks == 0:
             continue
-        matrix = contrib.matrix().astype(np.float64)
+        matrix = contrib.matrix(np.float64)
         feats.append(mask_features(matrix @ active_feats, vm))
         blocks.append(sp.csr_matrix(vm.weights.astype(np.float64) @ matrix))
         view_of.append(np.full(vm.n_masks, vm.view, dtype=np.int64))

@@ -33,7 +33,7 @@ def uplift_codes(
             continue
         codes = normalize_rows(rng.standard_normal((vm.n_masks, dim)))
         pixel_codes = vm.weights.T.astype(np.float64) @ codes  # (H*W, dim)
-        acc += contrib.matrix().T.astype(np.float64) @ pixel_codes
+        acc += contrib.matrix(np.float64).T @ pixel_codes
     return normalize_rows(acc)
 
 
@@ -48,5 +48,5 @@ def supervision_weight(
             continue
         covered = np.zeros(vm.n_pixels, dtype=np.float64)
         covered[vm.pixels] = 1.0
-        total += contrib.matrix().T.astype(np.float64) @ covered
+        total += contrib.matrix(np.float64).T @ covered
     return total

@@ -1,8 +1,8 @@
 """Content-addressed cache of per-view :class:`Contributors`.
 
 The key hashes what the weights depend on (the scene's geometry and opacity, not its
-colours; the camera; the config), so an unchanged view is never rebuilt, whichever
-objects carry it, and a changed array is never served stale weights.
+colours; the camera; the config, less its thread count), so an unchanged view is never
+rebuilt, whichever objects carry it, and a changed array is never served stale weights.
 """
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ from __future__ import annotations
 import hashlib
 import threading
 from collections import OrderedDict
-from dataclasses import astuple
+from dataclasses import astuple, replace
 
 import numpy as np
 
@@ -32,7 +32,7 @@ def contributors_key(scene: GaussianScene, camera: Camera, config: RasterConfig)
     cam = (camera.width, camera.height, camera.fx, camera.fy, camera.cx, camera.cy)
     h.update(repr(cam).encode())
     h.update(np.ascontiguousarray(camera.T_cam_world, dtype=np.float64).tobytes())
-    h.update(repr(astuple(config)).encode())
+    h.update(repr(astuple(replace(config, threads=None))).encode())  # threads: speed only
     return h.hexdigest()
 
 

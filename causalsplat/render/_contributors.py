@@ -1,4 +1,7 @@
-"""Fast path: per-view blending weights built with vectorised numpy, one tile at a time.
+"""Numpy path: per-view blending weights built with vectorised numpy, one tile at a time.
+
+The readable reference of the compiled kernel (:mod:`causalsplat.render._kernel`, the
+default) and its fallback where numba is not installed (``RasterConfig.backend``).
 
 The Gaussians are projected once (float64), binned to the screen tiles their pixel extent
 touches, and each tile composites its depth-sorted list in chunks: alpha for all
@@ -71,7 +74,7 @@ def _composite_tile(
     return np.concatenate(out_p), np.concatenate(out_g), np.concatenate(out_w)
 
 
-def compute_contributors(
+def compute_contributors_numpy(
     scene: GaussianScene, camera: Camera, config: RasterConfig, key: str
 ) -> Contributors:
     """Build the :class:`Contributors` of ``scene`` seen from ``camera`` (no caching here)."""

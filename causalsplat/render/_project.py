@@ -47,12 +47,17 @@ def camera_covariances(scene: GaussianScene, camera: Camera, index: np.ndarray) 
         cov = np.einsum("nij,nj,nkj->nik", rot, var, rot)
     bad = ~np.all(np.isfinite(cov), axis=(1, 2))
     if bad.any():
-        first = int(index[np.argmax(bad)])
-        raise RenderError(
-            f"covariance of {int(bad.sum())} Gaussian(s) overflows float64 "
-            f"(first: Gaussian {first}, log_scales {scene.log_scales[first].tolist()})"
-        )
+        raise covariance_overflow_error(scene, index[bad])
     return cov
+
+
+def covariance_overflow_error(scene: GaussianScene, bad: np.ndarray) -> RenderError:
+    """The error for Gaussians ``bad`` (ascending scene indices) whose covariance overflows."""
+    first = int(bad[0])
+    return RenderError(
+        f"covariance of {int(bad.shape[0])} Gaussian(s) overflows float64 "
+        f"(first: Gaussian {first}, log_scales {scene.log_scales[first].tolist()})"
+    )
 
 
 def _jacobians(camera: Camera, pc: np.ndarray, margin: float) -> np.ndarray:

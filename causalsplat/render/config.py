@@ -3,8 +3,12 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal
 
 from causalsplat.render.errors import RenderError
+
+#: Values of :attr:`RasterConfig.backend`.
+BACKENDS = ("auto", "numba", "numpy")
 
 
 @dataclass(frozen=True, slots=True)
@@ -25,8 +29,18 @@ class RasterConfig:
         jacobian_margin: the projection Jacobian is evaluated with ``x/z`` and ``y/z``
             clamped to the field of view widened by this fraction of the half-angle tangent
             on each side (0.3, as 3DGS), which keeps off-screen Gaussians from exploding.
-        tile_size: px, side of the square tiles of the fast path (performance only).
-        chunk: Gaussians per vectorised step inside a tile (performance only).
+        tile_size: px, side of the square screen tiles the numpy path bins the Gaussians
+            to (performance only; the numba kernel composites 128 x 8 px tiles row by row).
+        chunk: Gaussians per vectorised step inside a tile of the numpy path (performance
+            only).
+        backend: who builds the contributors: ``numba`` (the compiled kernel of
+            :mod:`causalsplat.render._kernel`, parallel over tiles), ``numpy`` (the
+            vectorised reference path of :mod:`causalsplat.render._contributors`) or
+            ``auto`` (numba when it imports, else numpy). Both give the same pixels,
+            Gaussians and order; weights agree to float32 rounding.
+        threads: threads of the numba kernel; ``None`` uses every core this process may run
+            on (``os.sched_getaffinity``), at most numba's ``NUMBA_NUM_THREADS``. The output
+            does not depend on it (performance only, not part of the cache key).
     """
 
     low_pass: float = 0.3
@@ -39,6 +53,8 @@ class RasterConfig:
     jacobian_margin: float = 0.3
     tile_size: int = 16
     chunk: int = 256
+    backend: Literal["auto", "numba", "numpy"] = "auto"
+    threads: int | None = None
 
     def __post_init__(self) -> None:
         checks = (
@@ -56,3 +72,14 @@ class RasterConfig:
         for name, ok in checks:
             if not ok:
                 raise RenderError(f"RasterConfig.{name}={getattr(self, name)!r} is out of range")
+        if self.backend not in BACKENDS:
+            raise RenderError(
+                f"RasterConfig.backend={self.backend!r} must be in {', '.join(BACKENDS)}"
+            )
+        threads = self.threads
+        if threads is not None and (
+            isinstance(threads, bool) or not isinstance(threads, int) or threads < 1
+        ):
+            raise RenderError(
+                f"RasterConfig.threads={threads!r} must be a positive integer or None"
+            )

@@ -1,7 +1,8 @@
 """The public, stateless rasterizer API (EWA splatting of 3D Gaussians, pinhole cameras).
 
 Every render goes through one per-view :class:`~causalsplat.render.types.Contributors`
-(sparse pixel x Gaussian blending weights), built by vectorised numpy and cached by
+(sparse pixel x Gaussian blending weights), built by a compiled numba kernel (or, as
+``RasterConfig.backend`` says or where numba is missing, by vectorised numpy) and cached by
 content; RGB, depth, id maps and features are products of those weights with
 per-Gaussian values. :mod:`causalsplat.render._reference` is the float64 per-pixel
 reference the tests hold this against. Only :func:`render_features` imports torch.
@@ -18,8 +19,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from causalsplat.io.types import Camera, GaussianScene
+from causalsplat.render._backend import compute_contributors
 from causalsplat.render._cache import cache_get, cache_put, contributors_key
-from causalsplat.render._contributors import compute_contributors
 from causalsplat.render._sh import view_colors
 from causalsplat.render.config import RasterConfig
 from causalsplat.render.errors import RenderError
@@ -129,7 +130,7 @@ def ids_from_contributors(
         (np.ones(ids.shape[0]), (np.arange(ids.shape[0]), inverse.ravel())),
         shape=(ids.shape[0], labels.shape[0]),
     )
-    per_label = (contrib.matrix().astype(np.float64) @ onehot).tocsr()
+    per_label = (contrib.matrix(np.float64) @ onehot).tocsr()
     best = np.asarray(per_label.argmax(axis=1)).ravel()
     winner = labels[best].astype(np.int64)
     alpha = contrib.alpha().ravel()

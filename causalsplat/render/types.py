@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 import scipy.sparse as sp
 
 
@@ -53,20 +54,28 @@ class Contributors:
             self.indptr.nbytes + self.indices.nbytes + self.weights.nbytes + self.depths.nbytes
         )
 
-    def matrix(self) -> sp.csr_matrix:
-        """W as a scipy CSR matrix of shape (H*W, N), float32 (shares the arrays)."""
+    def matrix(self, dtype: npt.DTypeLike = np.float32) -> sp.csr_matrix:
+        """W as a scipy CSR matrix of shape (H*W, N).
+
+        float32 shares the arrays; another ``dtype`` copies only the weights. Rows keep
+        their front-to-back order: use this rather than ``matrix().astype(...)``, which
+        scipy follows with a sort of every row by column (the rows are not in column
+        order), a pass over all entries each time.
+        """
+        dtype = np.dtype(dtype)
+        data = self.weights if dtype == self.weights.dtype else self.weights.astype(dtype)
         return sp.csr_matrix(
-            (self.weights, self.indices, self.indptr), shape=(self.n_pixels, self.n_gaussians)
+            (data, self.indices, self.indptr), shape=(self.n_pixels, self.n_gaussians)
         )
 
     def alpha(self) -> np.ndarray:
         """(H, W) float64 accumulated opacity: the sum of the weights of each pixel."""
-        sums = self.matrix().astype(np.float64).sum(axis=1)
+        sums = self.matrix(np.float64).sum(axis=1)
         out = np.asarray(sums).ravel()
         return out.reshape(self.height, self.width)
 
     def composite(self, values: np.ndarray) -> np.ndarray:
         """Composite per-Gaussian ``values`` (N,) or (N, C) into (H, W) or (H, W, C) float64."""
         v = np.asarray(values, dtype=np.float64)
-        out = self.matrix().astype(np.float64) @ v
+        out = self.matrix(np.float64) @ v
         return np.asarray(out).reshape((self.height, self.width, *v.shape[1:]))

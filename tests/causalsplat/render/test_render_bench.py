@@ -43,3 +43,7 @@ def test_quick_benchmark_runs() -> None:
     assert first["dense"]["error"] == pytest.approx(first["rows"][0]["error"], rel=1e-2)
     assert first["rows"][0]["fb_ms"] < first["dense"]["fb_ms"]
     assert "| cap | T_min |" in report.markdown
+    build = report.data["builds"][0]  # compiled kernel vs numpy path, same run
+    assert build["same_pairs"] and build["max_weight_diff"] < 1e-6
+    assert build["kernel_error"] == pytest.approx(build["numpy_error"], rel=1e-3)
+    assert "compiled kernel" in report.markdown
