@@ -190,9 +190,9 @@ SIDES: dict[str, str] = {
 #: Bodily states that point at an affordance ("I am thirsty" -> drink).
 STATES: dict[str, str] = {
     "thirsty": "drink", "hungry": "eat", "tired": "sleep", "sleepy": "sleep",
-    "cold": "keep warm", "chilly": "keep warm", "dark": "illuminate", "bored": "read",
+    "cold": "warm up", "chilly": "warm up", "dark": "illuminate", "bored": "read",
     "dirty": "wash", "wet": "dry", "exhausted": "sleep", "starving": "eat",
-    "parched": "drink", "freezing": "keep warm", "sweaty": "wash",
+    "parched": "drink", "freezing": "warm up", "sweaty": "wash",
 }  # fmt: skip
 #: Words that carry no meaning for affordance matching.
 ACTION_STOPWORDS = frozenset({

@@ -23,7 +23,7 @@ How the two signals combine, by what the instruction's target is:
   the purpose clause as an intent.
 * **intent**: a need or purpose ("I need a place to keep my food cold", "where can I heat
   up soup?", "I'm thirsty"; a bodily state said of someone is read as what it calls for,
-  "I am cold" as a need to keep warm, so that a fridge does not meet it). Every category
+  "I am cold" as a need to warm up, so that a fridge does not meet it). Every category
   gets ``meaning - PATIENT * acted_on``, where
   ``acted_on`` is the lexicon score of the category when the purpose clause names it as
   the direct object of its verb: that is what the need acts on, not what it asks for
@@ -461,8 +461,8 @@ _DEGREE = frozenset({"so", "very", "too", "really", "quite", "a", "bit", "little
 
 def _with_states(query: str, tokens: tuple[str, ...]) -> str:
     """The need's text with what each bodily state it predicates calls for ("I am cold" ->
-    "I am cold; I want to keep warm"): a state word said of someone, not of a thing ("keep
-    my food cold" is no state of the speaker, and a fridge is no way to keep warm)."""
+    "I am in need to warm up"): a state word said of someone, not of a thing ("keep
+    my food cold" is no state of the speaker, and a fridge is no way to warm up)."""
     wants = []
     for i, t in enumerate(tokens):
         if t not in STATES:

@@ -247,7 +247,7 @@ def test_a_state_said_of_someone_is_read_as_what_it_calls_for() -> None:
     def read(text: str) -> str:
         return _with_states(text, tokenize(text))
 
-    assert read("I am so cold") == "I am so in need to keep warm"
+    assert read("I am so cold") == "I am so in need to warm up"
     assert read("my hands are dirty") == "my hands are in need to wash"
     # said of a thing, not of someone: left as it is
     assert read("I need a place to keep my food cold") == "I need a place to keep my food cold"
@@ -267,3 +267,11 @@ def test_being_cold_asks_for_warmth_not_for_what_is_cold() -> None:
     assert reasoner.answer("I need a place to keep my food cold", scene).categories == (
         "refrigerator",
     )
+    # with nothing made to warm anyone, still not the fridge
+    kitchen = _scene(
+        (1, "refrigerator", (0, 3, 0.9)),
+        (2, "stove", (2, 3, 0.45)),
+        (3, "cup", (2, 2, 0.8)),
+        (4, "table", (2, 2, 0.4)),
+    )
+    assert "refrigerator" not in reasoner.answer("I'm freezing", kitchen).categories
