@@ -194,6 +194,30 @@ STATES: dict[str, str] = {
     "dirty": "wash", "wet": "dry", "exhausted": "sleep", "starving": "eat",
     "parched": "drink", "freezing": "warm up", "sweaty": "wash",
 }  # fmt: skip
+#: Words that predicate a state of someone ("I am cold", "it is so dark", "I feel tired").
+PREDICATING = frozenset({"am", "is", "are", "feel", "feels", "feeling", "get", "getting",
+                         "got", "become", "was", "were"})  # fmt: skip
+_DEGREE = frozenset({"so", "very", "too", "really", "quite", "a", "bit", "little", "pretty",
+                     "kind", "of", "super", "freaking", "extremely"})  # fmt: skip
+
+
+def state_at(tokens: tuple[str, ...], i: int) -> str | None:
+    """What the bodily state at ``tokens[i]`` calls for (:data:`STATES`), when it is said of
+    someone ("I am so cold", "thirsty!"); ``None`` for any other word and for a state word
+    said of a thing ("keep my food cold": the fridge is no way to warm up).
+
+    >>> state_at(("i", "am", "so", "cold"), 3), state_at(("keep", "food", "cold"), 2)
+    ('warm up', None)
+    """
+    want = STATES.get(tokens[i])
+    if want is None:
+        return None
+    j = i - 1
+    while j >= 0 and tokens[j] in _DEGREE:
+        j -= 1
+    return want if j < 0 or tokens[j] in PREDICATING else None
+
+
 #: Words that carry no meaning for affordance matching.
 ACTION_STOPWORDS = frozenset({
     "where", "what", "which", "can", "could", "would", "should", "i", "me", "my", "we", "you",

@@ -55,7 +55,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from causalsplat.reason._grammar import ACTION_STOPWORDS, DETERMINERS, PARTICLES, STATES
+from causalsplat.reason._grammar import ACTION_STOPWORDS, DETERMINERS, PARTICLES, state_at
 from causalsplat.reason._mentions import CategoryIndex, mention_at
 from causalsplat.reason.affordance import match_affordances
 from causalsplat.reason.context import SceneContext
@@ -445,34 +445,27 @@ def need_words(ins: Instruction) -> tuple[str, ...]:
     Without a purpose clause, the action words stage 1 found."""
     if ins.purpose_start is None or not ins.main_tokens:
         return ins.action
-    tail = [t for t in ins.main_tokens[ins.purpose_start :] if t.isalpha()]
-    words = [w for t in tail if t not in ACTION_STOPWORDS for w in STATES.get(t, t).split()]
+    tokens, start = ins.main_tokens, ins.purpose_start
+    tail = [t for t in tokens[start:] if t.isalpha()]
+    words = [
+        w
+        for i in range(start, len(tokens))
+        if tokens[i].isalpha() and tokens[i] not in ACTION_STOPWORDS
+        for w in (state_at(tokens, i) or tokens[i]).split()
+    ]
     if tail and tail[-1] in PARTICLES and (not words or words[-1] != tail[-1]):
         words.append(tail[-1])
     return tuple(words) or ins.action
-
-
-#: Words that predicate a state of someone ("I am cold", "it is so dark", "I feel tired").
-_PREDICATING = frozenset({"am", "is", "are", "feel", "feels", "feeling", "get", "getting",
-                          "got", "become", "was", "were"})  # fmt: skip
-_DEGREE = frozenset({"so", "very", "too", "really", "quite", "a", "bit", "little", "pretty",
-                     "kind", "of", "super", "freaking", "extremely"})  # fmt: skip
 
 
 def _with_states(query: str, tokens: tuple[str, ...]) -> str:
     """The need's text with what each bodily state it predicates calls for ("I am cold" ->
     "I am in need to warm up"): a state word said of someone, not of a thing ("keep
     my food cold" is no state of the speaker, and a fridge is no way to warm up)."""
-    wants = []
     for i, t in enumerate(tokens):
-        if t not in STATES:
-            continue
-        j = i - 1
-        while j >= 0 and tokens[j] in _DEGREE:
-            j -= 1
-        if j >= 0 and tokens[j] in _PREDICATING and STATES[t] not in wants:
-            wants.append(STATES[t])
-            query = re.sub(rf"\b{t}\b", f"in need to {STATES[t]}", query)
+        want = state_at(tokens, i)
+        if want is not None:
+            query = re.sub(rf"\b{t}\b", f"in need to {want}", query)
     return query
 
 

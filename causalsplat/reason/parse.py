@@ -382,7 +382,7 @@ def _action_words(tokens: tuple[str, ...], items: list[Item]) -> tuple[str, ...]
     for i, t in enumerate(tokens):
         if i in skip or t in (",", ".", "?") or t in g.ACTION_STOPWORDS:
             continue
-        words.extend(g.STATES.get(t, t).split())
+        words.extend((g.state_at(tokens, i) or t).split())
     if tokens and tokens[-1] in g.PARTICLES and (len(tokens) - 1) not in skip:
         words.append(tokens[-1])
     return tuple(words)
