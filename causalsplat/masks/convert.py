@@ -252,18 +252,10 @@ def convert_masks(
     cameras); a file whose stem has no camera is refused. ``size``: one size for all.
     Without either, masks keep their own size. Nothing is written when any file fails.
     """
-    from causalsplat.masks.files import write_masks
+    from causalsplat.masks.files import view_files, write_masks
 
     source, output = Path(source), Path(output)
-    if not source.is_dir():
-        raise MaskFormatError(f"{source}: not a folder of mask files")
-    files = sorted(p for p in source.iterdir() if p.suffix.lower() in SUFFIXES and p.is_file())
-    if not files:
-        raise MaskFormatError(f"{source}: no mask files ({', '.join(SUFFIXES)})")
-    stems = [p.stem for p in files]
-    twice = sorted({s for s in stems if stems.count(s) > 1})
-    if twice:
-        raise MaskFormatError(f"{source}: several files for view {twice[0]!r}")
+    files = view_files(source, SUFFIXES, what="mask files", each="files", error=MaskFormatError)
     converted = []
     resampled = 0
     for path in files:

@@ -23,6 +23,26 @@ import numpy as np
 
 from causalsplat.masks.types import MaskFormatError, MaskSet
 
+
+def view_files(
+    folder: Path, suffixes: tuple[str, ...], *, what: str, each: str, error: type[Exception]
+) -> list[Path]:
+    """The files of ``folder`` whose suffix is one of ``suffixes``, sorted by name, one per
+    view (a file's stem names its view). Raises ``error`` for a folder that is not one, a
+    folder without such files (``what``: "mask files") and two ``each`` ("files") of one
+    view."""
+    if not folder.is_dir():
+        raise error(f"{folder}: not a folder of {what}")
+    files = sorted(p for p in folder.iterdir() if p.suffix.lower() in suffixes and p.is_file())
+    if not files:
+        raise error(f"{folder}: no {what} ({', '.join(suffixes)})")
+    stems = [p.stem for p in files]
+    twice = sorted({s for s in stems if stems.count(s) > 1})
+    if twice:
+        raise error(f"{folder}: several {each} for view {twice[0]!r}")
+    return files
+
+
 #: Timestamp stored for every member of archives written here (the zip epoch).
 _ZIP_EPOCH = (1980, 1, 1, 0, 0, 0)
 

@@ -174,18 +174,10 @@ def _check_checkpoint(path: Path) -> Path:
 def list_images(folder: str | Path) -> list[Path]:
     """The images of ``folder`` (:data:`IMAGE_SUFFIXES`), sorted by name; refuses a
     folder without images and two images of one stem."""
-    folder = Path(folder)
-    if not folder.is_dir():
-        raise MaskGenerateError(f"{folder}: not a folder of images")
-    files = sorted(p for p in folder.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES)
-    files = [p for p in files if p.is_file()]
-    if not files:
-        raise MaskGenerateError(f"{folder}: no images ({', '.join(IMAGE_SUFFIXES)})")
-    stems = [p.stem for p in files]
-    twice = sorted({s for s in stems if stems.count(s) > 1})
-    if twice:
-        raise MaskGenerateError(f"{folder}: several images for view {twice[0]!r}")
-    return files
+    from causalsplat.masks.files import view_files
+
+    return view_files(Path(folder), IMAGE_SUFFIXES, what="images", each="images",
+                      error=MaskGenerateError)  # fmt: skip
 
 
 def read_image(path: Path) -> np.ndarray:
