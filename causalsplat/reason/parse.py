@@ -629,7 +629,8 @@ def _demonstrated(
     """The phrase a demonstrative points at is the one described: "there are plants next to
     this cabinet" describes the cabinet (near the plants), "there is no dispenser above
     this trash can" the trash can (not below a dispenser). Only a target with that one
-    relation, whose one anchor follows "this" / "these", is turned round."""
+    relation, whose one anchor follows "this", is turned round (stage 1's items leave
+    "this" before a noun said before as a pointer back, never such an anchor)."""
     if len(target.constraints) != 1 or target.mention is None or target.is_any:
         return target
     (c,) = target.constraints
@@ -643,7 +644,7 @@ def _demonstrated(
         return target
     if not 0 < m.start < m.end <= len(tokens):
         return target
-    if tokens[m.start - 1] not in ("this", "these"):
+    if tokens[m.start - 1] != "this":
         return target
     described = replace(target, constraints=())
     turned = Constraint(_inverse(c.kind), (described,), negated=c.negated, span=c.span)
