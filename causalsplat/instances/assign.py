@@ -149,35 +149,60 @@ def _vote_scores(
     centers: np.ndarray,
     features: np.ndarray,
     power: float,
-) -> tuple[np.ndarray, np.ndarray]:
-    """(S, K) per-view votes of each Gaussian for each cluster, times feature agreement.
+) -> tuple[sp.csr_matrix, np.ndarray]:
+    """(S, K) sparse per-view votes of each Gaussian for each cluster, times feature agreement.
 
     Rows are the Gaussians drawn inside some clustered mask (indices (S,)); see step 3 of
-    the module docstring.
+    the module docstring. Only the (Gaussian, cluster) pairs that received a vote are
+    stored: a Gaussian is seen inside the masks of a few clusters, not of all K, so the
+    memory grows with the votes cast, not with N x K.
     """
     k = centers.shape[0]
-    n = evidence.gaussian_weight.shape[1]
     coo = evidence.gaussian_weight.tocoo()
     keep = (cluster[coo.row] >= 0) & (coo.data > 0)
     mask, gauss, weight = coo.row[keep], coo.col[keep], coo.data[keep]
+    del coo
     if weight.size == 0:
-        return np.zeros((0, k)), np.zeros(0, dtype=np.int64)
+        return sp.csr_matrix((0, k)), np.zeros(0, dtype=np.int64)
     _, view = np.unique(evidence.view, return_inverse=True)
     n_views = int(view.max()) + 1
     # One unit vote per (Gaussian, view), split by weight among that view's clusters.
     _, pair = np.unique(gauss.astype(np.int64) * n_views + view[mask], return_inverse=True)
     share = weight / np.bincount(pair, weights=weight)[pair]
-    votes = sp.csr_matrix((share, (gauss, cluster[mask])), shape=(n, k)).toarray()
-    rows = np.flatnonzero(votes.sum(axis=1) > 0)
-    votes = votes[rows]
+    rows, row_of = np.unique(gauss, return_inverse=True)
+    votes = sp.csr_matrix((share, (row_of, cluster[mask])), shape=(rows.size, k))
+    votes.sum_duplicates()  # also sorts each row's columns, which the ties rely on
     if power > 0:
-        agree = np.clip(features[rows].astype(np.float64) @ centers.T, 0.0, None)
-        votes *= agree**power
-    return votes, rows
+        row_idx = np.repeat(np.arange(rows.size), np.diff(votes.indptr))
+        f = features[rows].astype(np.float64)
+        agree = np.einsum("ij,ij->i", f[row_idx], centers[votes.indices].astype(np.float64))
+        votes.data *= np.clip(agree, 0.0, None) ** power
+    return votes, rows.astype(np.int64)
+
+
+def _best_of(scores: np.ndarray | sp.csr_matrix, share: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Per row: the column of the highest score (first on ties) and that score, after
+    dividing each row by its sum when ``share``. Scores are non-negative when sparse."""
+    if sp.issparse(scores):
+        sub = sp.csr_matrix(scores)
+        if share:
+            total = np.asarray(sub.sum(axis=1)).ravel()
+            inv = np.divide(1.0, total, out=np.zeros_like(total), where=total > 0)
+            sub = sp.csr_matrix(sp.diags(inv) @ sub)
+        sub.sort_indices()
+        best = np.asarray(sub.argmax(axis=1)).ravel().astype(np.int64)
+        value = np.asarray(sub.max(axis=1).toarray()).ravel()
+        return best, value
+    dense = np.asarray(scores)
+    if share:
+        total = dense.sum(axis=1, keepdims=True)
+        dense = np.divide(dense, total, out=np.zeros_like(dense), where=total > 0)
+    best = dense.argmax(axis=1)
+    return best, dense[np.arange(dense.shape[0]), best]
 
 
 def _assign(
-    n: int, scores: np.ndarray, rows: np.ndarray, config: InstanceConfig
+    n: int, scores: np.ndarray | sp.csr_matrix, rows: np.ndarray, config: InstanceConfig
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Labels (cluster index or -1), best score, and the kept cluster indices (step 3).
 
@@ -192,12 +217,7 @@ def _assign(
         return labels, sim, kept[:0]
     share = config.assignment == "vote"
     while True:
-        sub = scores[:, kept]
-        if share:
-            total = sub.sum(axis=1, keepdims=True)
-            sub = np.divide(sub, total, out=np.zeros_like(sub), where=total > 0)
-        best = sub.argmax(axis=1)
-        best_sim = sub[np.arange(idx.size), best]
+        best, best_sim = _best_of(scores[:, kept], share)
         ok = best_sim >= (config.min_vote_share if share else config.min_similarity)
         if share:  # no vote at all (every agreement 0) is no assignment, whatever the floor
             ok &= best_sim > 0

@@ -174,3 +174,66 @@ def test_no_masks_give_no_entities() -> None:
 def test_instance_config_rejects_out_of_range_values(name: str, value: object) -> None:
     with pytest.raises(InstanceConfigError, match=f"InstanceConfig.{name}"):
         InstanceConfig(**{name: value})  # type: ignore[arg-type]
+
+
+def _dense_reference_labels(
+    evidence: MaskEvidence, cluster: np.ndarray, centers: np.ndarray, feats: np.ndarray,
+    power: float, config: InstanceConfig,
+) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """Step 3 with a dense (N, K) vote matrix, the way it was first written."""
+    n, k = evidence.gaussian_weight.shape[1], centers.shape[0]
+    coo = evidence.gaussian_weight.tocoo()
+    keep = (cluster[coo.row] >= 0) & (coo.data > 0)
+    mask, gauss, weight = coo.row[keep], coo.col[keep], coo.data[keep]
+    _, view = np.unique(evidence.view, return_inverse=True)
+    _, pair = np.unique(gauss * (view.max() + 1) + view[mask], return_inverse=True)
+    share = weight / np.bincount(pair, weights=weight)[pair]
+    votes = sp.csr_matrix((share, (gauss, cluster[mask])), shape=(n, k)).toarray()
+    rows = np.flatnonzero(votes.sum(axis=1) > 0)
+    votes = votes[rows] * np.clip(feats[rows].astype(np.float64) @ centers.T, 0, None) ** power
+    labels, best = np.full(n, -1), np.zeros(n)
+    kept = np.arange(k)
+    while True:
+        sub = votes[:, kept]
+        total = sub.sum(axis=1, keepdims=True)
+        sub = np.divide(sub, total, out=np.zeros_like(sub), where=total > 0)
+        arg = sub.argmax(axis=1)
+        value = sub[np.arange(rows.size), arg]
+        ok = (value >= config.min_vote_share) & (value > 0)
+        small = np.bincount(arg[ok], minlength=kept.size) < config.min_gaussians
+        if not small.any():
+            break
+        kept = kept[~small]
+    labels[rows[ok]] = kept[arg[ok]]
+    best[rows[ok]] = value[ok]
+    return labels, best
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_sparse_votes_match_a_dense_vote_matrix(seed: int) -> None:
+    """The sparse vote accumulation takes the decisions of the dense (N, K) one, cluster
+    dropping included, on random evidence with ties and all-zero agreements."""
+    from causalsplat.instances.assign import _assign, _vote_scores
+
+    rng = np.random.default_rng(seed)
+    n, m, k, dim = 400, 60, 7, 5
+    w = sp.random(m, n, density=0.08, random_state=seed, format="csr") * 3.0
+    w.data[rng.random(w.nnz) < 0.2] = 1.0  # equal weights: ties between clusters
+    evidence = MaskEvidence(
+        view=np.sort(rng.integers(0, 6, m)), index=np.arange(m), pixel_weight=np.ones(m),
+        features=np.zeros((m, dim), np.float32), gaussian_weight=w,
+    )  # fmt: skip
+    cluster = rng.integers(-1, k, m)
+    centers = _unit(rng.standard_normal((k, dim)))
+    feats = _unit(rng.standard_normal((n, dim))).astype(np.float32)
+    feats[:20] = 0.0  # no agreement with any cluster
+    config = InstanceConfig(min_gaussians=12, min_vote_share=0.3)
+    for power in (0.0, 1.0):
+        scores, rows = _vote_scores(evidence, cluster, centers, feats, power)
+        assert sp.issparse(scores) and scores.nnz < rows.size * k
+        labels, best, _ = _assign(n, scores, rows, config)
+        ref_labels, ref_best = _dense_reference_labels(
+            evidence, cluster, centers, feats, power, config
+        )
+        np.testing.assert_array_equal(labels, ref_labels)
+        np.testing.assert_allclose(best, ref_best, rtol=1e-12, atol=1e-15)
