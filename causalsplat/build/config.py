@@ -14,6 +14,7 @@ default. Unknown sections or keys are refused with :class:`BuildConfigError`::
 from __future__ import annotations
 
 import dataclasses
+import os
 from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
@@ -21,10 +22,22 @@ from typing import Any
 from causalsplat._json import JSONInputError, decode_json
 from causalsplat.errors import InputFormatError
 from causalsplat.field import FieldConfig
+from causalsplat.field.lift import VIEW_STORAGES, ViewStorage
 from causalsplat.graph import EdgeConfig
 from causalsplat.graph.nodes import NodeConfig
 from causalsplat.instances import InstanceConfig
 from causalsplat.render import RasterConfig
+
+#: Top-level options that change only speed and memory, never the result.
+SPEED_ONLY: tuple[str, ...] = ("views", "memory_budget_mib")
+
+
+def _physical_memory() -> int:
+    """Bytes of physical memory (8 GiB where the OS does not say)."""
+    try:
+        return int(os.sysconf("SC_PAGE_SIZE")) * int(os.sysconf("SC_PHYS_PAGES"))
+    except (ValueError, OSError, AttributeError):
+        return 8 * 2**30
 
 
 class BuildConfigError(InputFormatError):
@@ -59,6 +72,13 @@ class BuildConfig:
             Gaussian, for the PLY and the cameras to count as one capture
             (:mod:`causalsplat.build.coverage`); a build below either is refused. 0 turns
             a check off.
+        views: where the views' blending weights stay between the passes that read them:
+            ``auto`` (in memory while they fit the budget, the rest memory-mapped from
+            disk), ``memory``, ``disk`` or ``recompute`` (rebuilt at each use; see
+            :func:`causalsplat.field.prepare_views`). Speed and memory only.
+        memory_budget_mib: MiB the views' data may keep in memory under ``views="auto"``
+            (``None``: half the machine's memory). The per-Gaussian arrays come on top of it.
+            Speed and memory only.
     """
 
     max_views: int | None = None
@@ -68,6 +88,8 @@ class BuildConfig:
     allow_distortion: bool = False
     min_seen: float = 0.05
     min_masked: float = 0.5
+    views: ViewStorage = "auto"
+    memory_budget_mib: int | None = None
     raster: RasterConfig = dataclasses.field(default_factory=RasterConfig)
     field: FieldConfig = dataclasses.field(default_factory=FieldConfig)
     instances: InstanceConfig = dataclasses.field(default_factory=InstanceConfig)
@@ -95,6 +117,17 @@ class BuildConfig:
                 or not (0.0 <= value <= 1.0)
             ):
                 raise BuildConfigError(f"{name} must be in [0, 1], got {value!r}")
+        if self.views not in VIEW_STORAGES:
+            raise BuildConfigError(
+                f"views={self.views!r} must be one of {', '.join(map(repr, VIEW_STORAGES))}"
+            )
+        budget = self.memory_budget_mib
+        if budget is not None and (
+            isinstance(budget, bool) or not isinstance(budget, int) or budget < 0
+        ):
+            raise BuildConfigError(
+                f"memory_budget_mib must be an integer in [0, inf) or null, got {budget!r}"
+            )
         if not isinstance(self.units, str) or not self.units:
             raise BuildConfigError(f"units={self.units!r} must be a non-empty string")
 
@@ -102,11 +135,27 @@ class BuildConfig:
         out: dict[str, Any] = {
             name: getattr(self, name)
             for name in ("max_views", "units", "up_axis", "labeler", "allow_distortion",
-                         "min_seen", "min_masked")
+                         "min_seen", "min_masked", "views", "memory_budget_mib")
         }  # fmt: skip
         for name in _SECTIONS:
             out[name] = _section_json(getattr(self, name))
         return out
+
+    def result_json(self) -> dict[str, Any]:
+        """:meth:`to_json` less the options that change only speed and memory (``views``,
+        ``memory_budget_mib``, ``raster.threads``): what the scene's ``config_hash`` and
+        the stage caches are keyed on."""
+        out = self.to_json()
+        for name in SPEED_ONLY:
+            out.pop(name)
+        out["raster"].pop("threads")
+        return out
+
+    def memory_budget_bytes(self) -> int:
+        """The views' memory budget in bytes (``memory_budget_mib``, else half the RAM)."""
+        if self.memory_budget_mib is not None:
+            return self.memory_budget_mib * 2**20
+        return _physical_memory() // 2
 
     @classmethod
     def from_json(cls, document: Any, *, source: str = "<config>") -> BuildConfig:

@@ -192,8 +192,8 @@ def build_scene(
         )
         hashes = {k: v for k, v in folder.input_hashes().items() if not k.startswith("gt/")}
         coverage = check_coverage(folder, config)
-    raster = {k: v for k, v in config.to_json()["raster"].items() if k != "threads"}  # speed only
-    field_key = cache_key(CACHE_VERSION, hashes, raster, config.to_json()["field"])
+    result = config.result_json()  # less the speed-only options
+    field_key = cache_key(CACHE_VERSION, hashes, result["raster"], result["field"])
     field, evidence = _field_stage(folder, config, cache, field_key, stages, progress)
     if evidence.n == 0:
         raise BuildError(
@@ -203,7 +203,7 @@ def build_scene(
             f"scene, the masks match the images, and the near plane (raster.near = "
             f"{config.raster.near} scene units) suits the scene's scale"
         )
-    inst_key = cache_key(field_key, config.to_json()["instances"])
+    inst_key = cache_key(field_key, result["instances"])
     cached = cache.get("instances", inst_key)
     with stages.stage("instances", cached=cached is not None):
         if cached is not None:
@@ -285,12 +285,16 @@ def _field_stage(
     with stages.stage("rasterize"), _bar(len(folder.cameras), "rasterize", progress) as tick:
         views = prepare_views(
             folder.gaussians, folder.cameras, folder.masks, config.field,
-            raster=config.raster, progress=tick,
+            raster=config.raster, progress=tick, storage=config.views,
+            budget_bytes=config.memory_budget_bytes(),
         )  # fmt: skip
-    with stages.stage("field"):
-        with _bar(config.field.iterations, "field", progress) as tick:
-            field = lift_features(views, config.field, progress=tick)
-        evidence = mask_evidence(field, views)
+    try:
+        with stages.stage("field"):
+            with _bar(config.field.iterations, "field", progress) as tick:
+                field = lift_features(views, config.field, progress=tick)
+            evidence = mask_evidence(field, views)
+    finally:
+        views.close()
     cache.put("field", key, {**_encode_field(field), **_encode_evidence(evidence)})
     return field, evidence
 
@@ -338,7 +342,7 @@ def _graph(
         units=config.units,
         up_axis=config.up_axis,
         source="build",
-        config_hash=cache_key(config.to_json()),
+        config_hash=cache_key(config.result_json()),
         provenance=(*sorted(hashes.items()), ("source_dir", str(folder.root))),
     )
     return SceneGraph(meta=meta, entities=entities, relations=relations, views=views,

@@ -12,12 +12,20 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from pathlib import Path
+from typing import Literal
 
 import numpy as np
 import scipy.sparse as sp
 
 from causalsplat.errors import InputFormatError
 from causalsplat.field.config import FieldConfig
+from causalsplat.field.spill import (
+    ContributorsCodec,
+    RecomputedWeights,
+    ViewMasksCodec,
+    ViewSpill,
+)
 from causalsplat.field.types import FeatureField, MaskEvidence
 from causalsplat.field.uplift import supervision_weight, uplift_codes
 from causalsplat.field.weights import ViewMasks, mask_features, normalize_rows, view_masks
@@ -27,6 +35,12 @@ from causalsplat.render import RasterConfig, build_contributors
 from causalsplat.render.types import Contributors
 
 _RASTER = RasterConfig()
+#: Where a build keeps its views' weights (see :func:`prepare_views`).
+ViewStorage = Literal["auto", "memory", "disk", "recompute"]
+VIEW_STORAGES: tuple[str, ...] = ("auto", "memory", "disk", "recompute")
+#: Share of the budget of :func:`prepare_views` that the blending weights may keep
+#: resident; the weighted masks get the rest.
+_WEIGHTS_SHARE = 0.8
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -37,14 +51,28 @@ class LiftedViews:
         n_gaussians: N, Gaussians of the full scene.
         active: (N,) bool, Gaussians kept by the opacity pruning.
         contributors: per view, the blending weights of the *active* Gaussians (columns
-            index ``np.flatnonzero(active)``).
-        masks: per view, its usable masks (:class:`ViewMasks`).
+            index ``np.flatnonzero(active)``): a tuple, or a sequence that reads a view
+            from disk or rebuilds it when indexed (:mod:`causalsplat.field.spill`).
+        masks: per view, its usable masks (:class:`ViewMasks`), held the same way.
     """
 
     n_gaussians: int
     active: np.ndarray
-    contributors: tuple[Contributors, ...]
-    masks: tuple[ViewMasks, ...]
+    contributors: Sequence[Contributors]
+    masks: Sequence[ViewMasks]
+
+    @property
+    def spilled_bytes(self) -> int:
+        """Bytes of view data written to disk (0 when every view stayed in memory)."""
+        return sum(
+            s.spilled_bytes for s in (self.contributors, self.masks) if isinstance(s, ViewSpill)
+        )
+
+    def close(self) -> None:
+        """Remove the spilled files now (otherwise when the views are collected)."""
+        for s in (self.contributors, self.masks):
+            if isinstance(s, ViewSpill):
+                s.close()
 
 
 def prepare_views(
@@ -55,29 +83,57 @@ def prepare_views(
     *,
     raster: RasterConfig = _RASTER,
     progress: Callable[[int], None] | None = None,
+    storage: ViewStorage = "memory",
+    budget_bytes: int | None = None,
+    spill_dir: str | Path | None = None,
 ) -> LiftedViews:
-    """Prune, rasterise each view once and weight its masks (module docstring)."""
+    """Prune, rasterise each view once and weight its masks (module docstring).
+
+    ``storage`` says where the views' blending weights stay between the passes that read
+    them: ``memory`` (all resident), ``disk`` (written once and memory-mapped at each use),
+    ``recompute`` (rebuilt by the rasterizer at each use, nothing kept) or ``auto``
+    (resident while they fit ``budget_bytes``, the rest on disk). The weighted masks stay
+    resident, or, under ``auto`` and ``disk``, go to disk past their share of the budget.
+    Disk files go to a private folder under ``spill_dir`` (default: the system's temporary
+    directory), removed by :meth:`LiftedViews.close` or when the views are collected.
+    """
     if len(cameras) != len(masksets):
         raise InputFormatError(f"{len(cameras)} cameras but {len(masksets)} mask sets")
+    if storage not in VIEW_STORAGES:
+        raise InputFormatError(f"storage={storage!r} must be one of {', '.join(VIEW_STORAGES)}")
+    active = scene.opacities >= config.min_opacity
+    sub = scene.subset(np.flatnonzero(active))
+    rng = np.random.default_rng([config.seed, 1])
+    unlimited = 1 << 62
+    budget = unlimited if budget_bytes is None else max(0, int(budget_bytes))
+    weight_budget = {"memory": unlimited, "disk": 0, "recompute": 0}.get(
+        storage, int(budget * _WEIGHTS_SHARE)
+    )
+    mask_budget = unlimited if storage in ("memory", "recompute") else budget - weight_budget
+    contribs = ViewSpill(ContributorsCodec(), weight_budget, spill_dir)
+    vms = ViewSpill(ViewMasksCodec(), mask_budget, spill_dir)
     for cam, ms in zip(cameras, masksets, strict=True):
         if (ms.width, ms.height) != (cam.width, cam.height):
             raise InputFormatError(
                 f"view {ms.view!r}: masks are {ms.width}x{ms.height} pixels, its camera "
                 f"{cam.width}x{cam.height}"
             )
-    active = scene.opacities >= config.min_opacity
-    sub = scene.subset(np.flatnonzero(active))
-    rng = np.random.default_rng([config.seed, 1])
-    contribs: list[Contributors] = []
-    vms: list[ViewMasks] = []
     for i, (cam, ms) in enumerate(zip(cameras, masksets, strict=True)):
-        contrib = build_contributors(sub, cam, config=raster)
+        contrib = build_contributors(sub, cam, config=raster, cache=False)
         valid = contrib.alpha() >= config.min_pixel_alpha if config.min_pixel_alpha > 0 else None
-        contribs.append(contrib)
+        if storage != "recompute":
+            contribs.append(contrib)
         vms.append(view_masks(ms, i, config, rng, valid=valid))
+        del contrib, valid
         if progress is not None:
             progress(i + 1)
-    return LiftedViews(scene.n, active, tuple(contribs), tuple(vms))
+    weights: Sequence[Contributors] = contribs
+    if storage == "recompute":
+        weights = RecomputedWeights(sub, cameras, raster)
+    elif contribs.n_spilled == 0:
+        weights = tuple(contribs)
+    masks: Sequence[ViewMasks] = tuple(vms) if vms.n_spilled == 0 else vms
+    return LiftedViews(scene.n, active, weights, masks)
 
 
 def lift_features(

@@ -98,7 +98,6 @@ def train_features(
     feats = torch.tensor(np.asarray(init, dtype=np.float32), requires_grad=True)
     if not views or config.iterations == 0:
         return feats.detach().numpy().astype(np.float64), ()
-    terms = {i: _view_terms(masks[i]) for i in views}
     optimiser = torch.optim.Adam([feats], lr=config.learning_rate)
     generator = torch.Generator().manual_seed(config.seed)
     order_rng = np.random.default_rng(config.seed)
@@ -109,8 +108,10 @@ def train_features(
             order = [views[k] for k in order_rng.permutation(len(views))]
         v = order.pop()
         optimiser.zero_grad(set_to_none=True)
-        loss = contrastive_loss(render_features(contributors[v], feats), terms[v], config,
-                                generator)  # fmt: skip
+        # A view's weights and loss terms are made for its step and dropped after it, so
+        # memory holds one view at a time (views may be read from disk, see prepare_views).
+        loss = contrastive_loss(render_features(contributors[v], feats),
+                                _view_terms(masks[v]), config, generator)  # fmt: skip
         loss.backward()
         optimiser.step()
         losses.append(float(loss.detach()))

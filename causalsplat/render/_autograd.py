@@ -1,79 +1,91 @@
 """Feature rendering as a sparse matrix product with a custom autograd function (imports torch).
 
 With the Gaussian geometry frozen, a view's render of per-Gaussian features ``f`` (N, C)
-is ``W @ f`` with the cached CSR weights ``W`` (H*W, N); the gradient with respect to ``f``
-is ``W^T @ g``. Both products run on torch sparse CSR tensors; ``W`` and ``W^T`` are built
-once per :class:`Contributors` and dtype and kept while the contributors are alive.
+is ``W @ f`` with the view's CSR weights ``W`` (H*W, N); the gradient with respect to ``f``
+is ``W^T @ g``. Nothing is kept between calls: the forward product runs on a torch CSR
+tensor that shares the :class:`Contributors` arrays (no copy of the weights when they are
+float32, as stored), and the backward product scatters the rows of ``W`` into the
+Gaussians (:mod:`causalsplat.render._kernel_transpose` where numba imports, else scipy's
+product with the transposed CSR view, which is not materialised either). So a view whose
+weights are not in use holds no torch memory, and a view read from a memory-mapped file
+is never copied.
 """
 
 from __future__ import annotations
 
-import threading
 import warnings
-import weakref
 from typing import Any
 
 import numpy as np
-import scipy.sparse as sp
 import torch
 
+from causalsplat.render._backend import numba_available
 from causalsplat.render.types import Contributors
 
-_LOCK = threading.Lock()
-_TENSORS: weakref.WeakKeyDictionary[Contributors, dict[torch.dtype, tuple[Any, Any]]] = (
-    weakref.WeakKeyDictionary()
-)
 
-
-def _csr_tensor(mat: sp.csr_matrix, dtype: torch.dtype) -> torch.Tensor:
+def _csr_tensor(c: Contributors, dtype: torch.dtype) -> torch.Tensor:
     # int32 indices take the faster CSR kernels (about 2x here) when they fit.
-    itype = np.int32 if max(mat.nnz, *mat.shape) < 2**31 - 1 else np.int64
+    itype = np.int32 if max(c.nnz, c.n_pixels, c.n_gaussians) < 2**31 - 1 else np.int64
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", message="Sparse CSR tensor support is in beta")
-        return _make_csr(mat, itype, dtype)
+        warnings.filterwarnings("ignore", message="The given NumPy array is not writable")
+        return torch.sparse_csr_tensor(
+            torch.from_numpy(np.asarray(c.indptr).astype(itype, copy=False)),
+            torch.from_numpy(np.asarray(c.indices).astype(itype, copy=False)),
+            torch.from_numpy(np.asarray(c.weights)).to(dtype),
+            size=(c.n_pixels, c.n_gaussians),
+            check_invariants=False,
+        )
 
 
-def _make_csr(mat: sp.csr_matrix, itype: type, dtype: torch.dtype) -> torch.Tensor:
-    return torch.sparse_csr_tensor(
-        torch.from_numpy(mat.indptr.astype(itype)),
-        torch.from_numpy(mat.indices.astype(itype)),
-        torch.from_numpy(np.ascontiguousarray(mat.data)).to(dtype),
-        size=mat.shape,
-        check_invariants=False,
-    )
+def _transposed(c: Contributors, grad: torch.Tensor) -> torch.Tensor:
+    g = grad.detach().contiguous().numpy()
+    if numba_available():
+        from causalsplat.render._kernel import available_cores
+        from causalsplat.render._kernel_transpose import transposed_product
 
-
-def sparse_operators(contributors: Contributors, dtype: torch.dtype) -> tuple[Any, Any]:
-    """(W, W^T) as torch sparse CSR tensors of ``dtype`` (cached per contributors)."""
-    with _LOCK:
-        per = _TENSORS.setdefault(contributors, {})
-        if dtype not in per:
-            mat = contributors.matrix()
-            per[dtype] = (_csr_tensor(mat, dtype), _csr_tensor(mat.T.tocsr(), dtype))
-        return per[dtype]
+        out = transposed_product(
+            c.indptr, c.indices, c.weights, g, c.n_gaussians, available_cores()
+        )
+    else:
+        out = np.asarray(c.matrix(g.dtype).T @ g)
+    return torch.from_numpy(out)
 
 
 class SparseComposite(torch.autograd.Function):
     """``out = W @ features``; backward ``grad_features = W^T @ grad_out``.
 
-    ``W`` and ``W^T`` are constant CSR tensors (no gradient flows to the weights).
+    ``W`` is constant (no gradient flows to the weights). The backward is itself a
+    :class:`TransposedComposite`, so higher derivatives exist too.
     """
 
     @staticmethod
-    def forward(
-        ctx: Any, features: torch.Tensor, w: torch.Tensor, wt: torch.Tensor
-    ) -> torch.Tensor:
-        ctx.wt = wt
-        return torch.sparse.mm(w, features)
+    def forward(ctx: Any, features: torch.Tensor, contributors: Contributors) -> torch.Tensor:
+        ctx.contributors = contributors
+        return torch.sparse.mm(_csr_tensor(contributors, features.dtype), features)
 
     @staticmethod
-    def backward(ctx: Any, grad_out: torch.Tensor) -> tuple[torch.Tensor | None, None, None]:
+    def backward(ctx: Any, grad_out: torch.Tensor) -> tuple[torch.Tensor | None, None]:
         if not ctx.needs_input_grad[0]:
-            return None, None, None
-        return torch.sparse.mm(ctx.wt, grad_out.contiguous()), None, None
+            return None, None
+        return TransposedComposite.apply(grad_out, ctx.contributors), None  # type: ignore[no-untyped-call]
+
+
+class TransposedComposite(torch.autograd.Function):
+    """``out = W^T @ grad``; backward ``W @ grad_out`` (a :class:`SparseComposite`)."""
+
+    @staticmethod
+    def forward(ctx: Any, grad: torch.Tensor, contributors: Contributors) -> torch.Tensor:
+        ctx.contributors = contributors
+        return _transposed(contributors, grad)
+
+    @staticmethod
+    def backward(ctx: Any, grad_out: torch.Tensor) -> tuple[torch.Tensor | None, None]:
+        if not ctx.needs_input_grad[0]:
+            return None, None
+        return SparseComposite.apply(grad_out, ctx.contributors), None  # type: ignore[no-untyped-call]
 
 
 def composite_features(contributors: Contributors, features: torch.Tensor) -> torch.Tensor:
     """(H*W, C) composite of (N, C) features (float32 or float64, CPU)."""
-    w, wt = sparse_operators(contributors, features.dtype)
-    return SparseComposite.apply(features, w, wt)  # type: ignore[no-any-return,no-untyped-call]
+    return SparseComposite.apply(features, contributors)  # type: ignore[no-any-return,no-untyped-call]

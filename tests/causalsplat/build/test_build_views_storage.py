@@ -1,0 +1,107 @@
+"""Where a build keeps its views: in memory, memory-mapped from disk, or rebuilt per use.
+
+The storage changes speed and memory only: every choice gives the same scene, the spill
+folder is gone after the build, and the scene's config hash does not see the choice.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from causalsplat.build import BuildConfig, build_scene
+from causalsplat.build.config import BuildConfigError
+from causalsplat.field import FieldConfig, prepare_views
+from causalsplat.field.spill import ArrayCodec, ViewSpill
+from graph_store import SceneGraph
+
+_FAST = {"field": FieldConfig(iterations=40)}
+
+
+def _spill_folders(root: Path) -> list[str]:
+    return sorted(p.name for p in root.glob("causalsplat-views-*"))
+
+
+@pytest.fixture(scope="module")
+def reference(tiny_folder: Path) -> tuple[np.ndarray, SceneGraph]:
+    result = build_scene(tiny_folder, config=BuildConfig(views="memory", **_FAST), cache_dir=False)
+    return result.gaussian_labels, result.graph
+
+
+@pytest.mark.parametrize(
+    "views, budget_mib", [("disk", None), ("recompute", None), ("auto", 0), ("auto", 1)]
+)
+def test_every_storage_builds_the_same_scene(
+    tiny_folder: Path,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    reference: tuple[np.ndarray, SceneGraph],
+    views: str,
+    budget_mib: int | None,
+) -> None:
+    monkeypatch.setenv("TMPDIR", str(tmp_path))
+    import tempfile
+
+    monkeypatch.setattr(tempfile, "tempdir", None)  # re-read TMPDIR
+    config = BuildConfig(views=views, memory_budget_mib=budget_mib, **_FAST)  # type: ignore[arg-type]
+    result = build_scene(tiny_folder, config=config, cache_dir=False)
+    labels, graph = reference
+    np.testing.assert_array_equal(result.gaussian_labels, labels)
+    assert result.graph == graph  # config_hash included: speed knobs are left out
+    assert _spill_folders(tmp_path) == []
+
+
+def test_disk_views_are_memory_mapped_and_removed_on_close(
+    tiny_folder: Path, tmp_path: Path
+) -> None:
+    from causalsplat.build.folder import read_scene_folder
+
+    folder = read_scene_folder(tiny_folder, max_views=3)
+    field = FieldConfig()
+    memory = prepare_views(folder.gaussians, folder.cameras, folder.masks, field)
+    disk = prepare_views(
+        folder.gaussians, folder.cameras, folder.masks, field, storage="disk", spill_dir=tmp_path
+    )
+    assert disk.spilled_bytes > 0 and memory.spilled_bytes == 0
+    assert len(_spill_folders(tmp_path)) == 1
+    for a, b in zip(memory.contributors, disk.contributors, strict=True):
+        assert isinstance(b.weights, np.memmap) and not b.weights.flags.writeable
+        np.testing.assert_array_equal(a.indptr, b.indptr)
+        np.testing.assert_array_equal(a.indices, b.indices)
+        np.testing.assert_array_equal(a.weights, b.weights)
+    for a, b in zip(memory.masks, disk.masks, strict=True):
+        assert (a.weights != b.weights).nnz == 0 and a.mask_index.tolist() == b.mask_index.tolist()
+    disk.close()
+    assert _spill_folders(tmp_path) == []
+
+
+def test_a_spill_keeps_views_resident_up_to_its_budget(tmp_path: Path) -> None:
+    spill = ViewSpill(ArrayCodec(), budget_bytes=64, folder=tmp_path)
+    arrays = [np.arange(k, dtype=np.float64) for k in (4, 4, 1, 8)]  # 32, 32, 8, 64 bytes
+    for a in arrays:
+        spill.append(a)
+    assert (spill.resident_bytes, spill.spilled_bytes, spill.n_spilled) == (64, 72, 2)
+    assert [x.tolist() for x in spill] == [a.tolist() for a in arrays]
+    assert spill[-1].tolist() == arrays[-1].tolist() and len(spill[1:3]) == 2
+    with pytest.raises(IndexError, match="view 4 out of range"):
+        spill[4]
+    (folder,) = list(tmp_path.iterdir())
+    assert len(os.listdir(folder)) == 2
+    del spill  # collected: its files go too
+    assert not folder.exists()
+
+
+@pytest.mark.parametrize(
+    "key, value, match",
+    [
+        ("views", "ram", r"views='ram' must be one of 'auto', 'memory', 'disk', 'recompute'"),
+        ("memory_budget_mib", -1, r"memory_budget_mib must be an integer in \[0, inf\)"),
+        ("memory_budget_mib", 1.5, r"memory_budget_mib must be an integer in \[0, inf\)"),
+    ],
+)
+def test_storage_options_are_checked(key: str, value: object, match: str) -> None:
+    with pytest.raises(BuildConfigError, match=match):
+        BuildConfig.from_json({key: value})
