@@ -72,6 +72,9 @@ class BuildConfig:
             Gaussian, for the PLY and the cameras to count as one capture
             (:mod:`causalsplat.build.coverage`); a build below either is refused. 0 turns
             a check off.
+        image_scale: work at this fraction of the masks' resolution, in (0, 1]: cameras
+            and masks are scaled down (:mod:`causalsplat.build.scale`), the rasterizer's
+            work and the views' memory fall with its square.
         views: where the views' blending weights stay between the passes that read them:
             ``auto`` (in memory while they fit the budget, the rest memory-mapped from
             disk), ``memory``, ``disk`` or ``recompute`` (rebuilt at each use; see
@@ -88,6 +91,7 @@ class BuildConfig:
     allow_distortion: bool = False
     min_seen: float = 0.05
     min_masked: float = 0.5
+    image_scale: float = 1.0
     views: ViewStorage = "auto"
     memory_budget_mib: int | None = None
     raster: RasterConfig = dataclasses.field(default_factory=RasterConfig)
@@ -117,6 +121,9 @@ class BuildConfig:
                 or not (0.0 <= value <= 1.0)
             ):
                 raise BuildConfigError(f"{name} must be in [0, 1], got {value!r}")
+        scale = self.image_scale
+        if isinstance(scale, bool) or not isinstance(scale, int | float) or not 0 < scale <= 1:
+            raise BuildConfigError(f"image_scale must be in (0, 1], got {scale!r}")
         if self.views not in VIEW_STORAGES:
             raise BuildConfigError(
                 f"views={self.views!r} must be one of {', '.join(map(repr, VIEW_STORAGES))}"
@@ -135,7 +142,7 @@ class BuildConfig:
         out: dict[str, Any] = {
             name: getattr(self, name)
             for name in ("max_views", "units", "up_axis", "labeler", "allow_distortion",
-                         "min_seen", "min_masked", "views", "memory_budget_mib")
+                         "min_seen", "min_masked", "image_scale", "views", "memory_budget_mib")
         }  # fmt: skip
         for name in _SECTIONS:
             out[name] = _section_json(getattr(self, name))

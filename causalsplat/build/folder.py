@@ -20,11 +20,13 @@ from __future__ import annotations
 
 import hashlib
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 
 import numpy as np
 
+from causalsplat.build.mask_files import DEFAULT_BUDGET, MaskFiles
 from causalsplat.errors import InputFormatError
 from causalsplat.io import read_colmap_model, read_gaussian_ply, read_transforms_json
 from causalsplat.io.errors import ColmapDistortionError
@@ -51,7 +53,9 @@ class SceneFolder:
         cameras: the cameras that have a mask file (and were kept by ``max_views``), in
             camera order (COLMAP image id, or ``transforms.json`` frame order).
         masks: ``masks[i]`` belongs to ``cameras[i]``; ``masks[i].view`` is its stem and
-            ``masks[i].masks`` is (M, height, width) bool at the camera's size.
+            ``masks[i].masks`` is (M, height, width) bool at the camera's size. Read from
+            the files when indexed, up to ``mask_budget`` bytes kept
+            (:class:`~causalsplat.build.mask_files.MaskFiles`).
         gt_labels: (N,) int32 GT entity id per Gaussian (-1 none), or ``None``.
         objects_path, queries_path: ``objects.json`` / ``queries.json``, or ``None``.
         skipped_views: stems of the cameras without a mask file, in camera order.
@@ -64,7 +68,7 @@ class SceneFolder:
     cameras_path: Path
     gaussians: GaussianScene
     cameras: tuple[Camera, ...]
-    masks: tuple[MaskSet, ...]
+    masks: Sequence[MaskSet]
     gt_labels: np.ndarray | None
     objects_path: Path | None
     queries_path: Path | None
@@ -104,7 +108,11 @@ def view_stem(camera_name: str) -> str:
 
 
 def read_scene_folder(
-    path: str | Path, *, max_views: int | None = None, allow_distortion: bool = False
+    path: str | Path,
+    *,
+    max_views: int | None = None,
+    allow_distortion: bool = False,
+    mask_budget: int = DEFAULT_BUDGET,
 ) -> SceneFolder:
     """Read a scene folder (module docstring).
 
@@ -115,6 +123,8 @@ def read_scene_folder(
             Only the kept views' mask files are read. ``None`` keeps all.
         allow_distortion: read COLMAP cameras with lens distortion as pinhole cameras
             (:attr:`SceneFolder.distorted` names them) instead of refusing them.
+        mask_budget: bytes of mask arrays kept in memory; the other views' mask files are
+            read again when a stage needs them. Every file is read and checked here.
 
     Raises :class:`SceneFolderFormatError` for a missing folder, PLY, cameras or ``masks/``,
     no camera with a mask file, a mask file matching no camera, two cameras with one stem,
@@ -135,7 +145,9 @@ def read_scene_folder(
     with_masks, skipped = _match_masks(root, all_cameras)
     if max_views is not None:
         with_masks = [with_masks[i] for i in _spaced(len(with_masks), max_views)]
-    masks = tuple(_read_view_masks(root / "masks", cam) for cam in with_masks)
+    masks = MaskFiles(
+        len(with_masks), lambda i: _read_view_masks(root / "masks", with_masks[i]), mask_budget
+    )
     objects, queries = root / "objects.json", root / "queries.json"
     return SceneFolder(
         root=root,

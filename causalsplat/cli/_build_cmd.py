@@ -2,12 +2,31 @@
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import click
 
-from causalsplat.cli._app import cli, db_option, echo_json, json_option
+from causalsplat.cli._app import cli, db_option, echo_json, fail, json_option
+
+_UNITS = {"K": 2**-10, "M": 1, "G": 2**10, "T": 2**20}
+
+
+def parse_mib(text: str) -> int:
+    """MiB of a size such as ``12G``, ``800M``, ``512K`` or ``2048`` (MiB).
+
+    >>> parse_mib("12G"), parse_mib("800m"), parse_mib("2048"), parse_mib("1.5G")
+    (12288, 800, 2048, 1536)
+    """
+    value = text.strip().upper().removesuffix("IB").removesuffix("B")
+    factor = _UNITS.get(value[-1:]) if value else None
+    number = value[:-1] if factor is not None else value
+    try:
+        mib = float(number) * (factor or 1)
+    except ValueError:
+        fail(f"--memory-budget {text!r}: expected a size such as 12G, 800M or 2048 (MiB)")
+    if not mib >= 0 or mib == float("inf"):
+        fail(f"--memory-budget {text!r}: must be in [0, inf)")
+    return int(mib)
 
 
 @cli.command("build")
@@ -51,6 +70,34 @@ from causalsplat.cli._app import cli, db_option, echo_json, json_option
     help="Read COLMAP cameras with lens distortion as pinhole cameras (with a warning) "
     "instead of refusing them; undistorting first (colmap image_undistorter) is exact.",
 )
+@click.option(
+    "--image-scale",
+    type=click.FloatRange(min=0, max=1, min_open=True),
+    help="Work at this fraction of the masks' resolution, in (0, 1] (cameras and masks "
+    "scaled down; time and memory of the views fall with its square).",
+)
+@click.option(
+    "--threads",
+    type=click.IntRange(min=1),
+    help="Threads of the rasterizer and the field (default: the cores this process may use).",
+)
+@click.option(
+    "--memory-budget",
+    metavar="SIZE",
+    help="Memory the views' data may keep, e.g. 12G or 800M (default: half the RAM); "
+    "views past it are memory-mapped from a temporary folder.",
+)
+@click.option(
+    "--views",
+    type=click.Choice(["auto", "memory", "disk", "recompute"]),
+    help="Where the views' weights stay between passes: auto (memory up to the budget, "
+    "then disk), memory, disk, or recompute (rasterized again at each use).",
+)
+@click.option(
+    "--progress/--no-progress",
+    default=None,
+    help="Progress on stderr: bars on a terminal, lines otherwise (default: on, off with --json).",
+)
 @db_option
 @json_option
 def build(
@@ -63,6 +110,11 @@ def build(
     no_cache: bool,
     labeler: str | None,
     allow_distortion: bool,
+    image_scale: float | None,
+    threads: int | None,
+    memory_budget: str | None,
+    views: str | None,
+    progress: bool | None,
     db_url: str,
     as_json: bool,
 ) -> None:
@@ -84,6 +136,16 @@ def build(
         config = dataclasses.replace(config, labeler=labeler)
     if allow_distortion:
         config = dataclasses.replace(config, allow_distortion=True)
+    if image_scale is not None:
+        config = dataclasses.replace(config, image_scale=image_scale)
+    if threads is not None:
+        config = dataclasses.replace(
+            config, raster=dataclasses.replace(config.raster, threads=threads)
+        )
+    if memory_budget is not None:
+        config = dataclasses.replace(config, memory_budget_mib=parse_mib(memory_budget))
+    if views is not None:
+        config = dataclasses.replace(config, views=views)  # type: ignore[arg-type]
     cache: Path | bool = False if no_cache else (cache_dir or True)
     with open_store(db_url) as store:
         scene = store.build(
@@ -92,7 +154,7 @@ def build(
             config=config,
             if_exists=if_exists,  # type: ignore[arg-type]
             cache_dir=cache,
-            progress=not as_json and sys.stderr.isatty(),
+            progress=(not as_json) if progress is None else progress,
         )
     report = scene.build_report
     assert report is not None

@@ -141,8 +141,12 @@ def lift_features(
     config: FieldConfig,
     *,
     progress: Callable[[int], None] | None = None,
+    threads: int | None = None,
 ) -> FeatureField:
-    """Initialise and train the per-Gaussian features of ``views`` (module docstring)."""
+    """Initialise and train the per-Gaussian features of ``views`` (module docstring).
+
+    ``threads``: torch threads of the training (``None``: torch's setting), restored after.
+    """
     rng = np.random.default_rng([config.seed, 2])
     n_active = int(views.active.sum())
     if config.init == "uplift":
@@ -156,7 +160,7 @@ def lift_features(
         from causalsplat.field.train import train_features
 
         feats, losses = train_features(
-            views.contributors, views.masks, init, config, progress=progress
+            views.contributors, views.masks, init, config, progress=progress, threads=threads
         )
     full = np.zeros((views.n_gaussians, config.feature_dim), dtype=np.float32)
     full[views.active] = normalize_rows(feats).astype(np.float32)

@@ -88,8 +88,11 @@ def train_features(
     config: FieldConfig,
     *,
     progress: Callable[[int], None] | None = None,
+    threads: int | None = None,
 ) -> tuple[np.ndarray, tuple[float, ...]]:
     """Optimise ``init`` (N, C) for ``config.iterations`` steps; returns (features, losses).
+
+    ``threads``: torch threads for the steps (``None``: torch's setting), restored after.
 
     Views without usable masks are skipped. ``progress(k)`` is called after each step.
     Deterministic for a given ``config.seed`` (torch's CPU kernels are).
@@ -98,6 +101,23 @@ def train_features(
     feats = torch.tensor(np.asarray(init, dtype=np.float32), requires_grad=True)
     if not views or config.iterations == 0:
         return feats.detach().numpy().astype(np.float64), ()
+    before = torch.get_num_threads()
+    if threads is not None:
+        torch.set_num_threads(threads)
+    try:
+        return _train(contributors, masks, views, feats, config, progress)
+    finally:
+        torch.set_num_threads(before)
+
+
+def _train(
+    contributors: Sequence[Contributors],
+    masks: Sequence[ViewMasks],
+    views: list[int],
+    feats: torch.Tensor,
+    config: FieldConfig,
+    progress: Callable[[int], None] | None,
+) -> tuple[np.ndarray, tuple[float, ...]]:
     optimiser = torch.optim.Adam([feats], lr=config.learning_rate)
     generator = torch.Generator().manual_seed(config.seed)
     order_rng = np.random.default_rng(config.seed)

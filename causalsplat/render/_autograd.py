@@ -41,11 +41,11 @@ def _csr_tensor(c: Contributors, dtype: torch.dtype) -> torch.Tensor:
 def _transposed(c: Contributors, grad: torch.Tensor) -> torch.Tensor:
     g = grad.detach().contiguous().numpy()
     if numba_available():
-        from causalsplat.render._kernel import available_cores
         from causalsplat.render._kernel_transpose import transposed_product
 
+        # As many threads as torch's own products use (``torch.set_num_threads``).
         out = transposed_product(
-            c.indptr, c.indices, c.weights, g, c.n_gaussians, available_cores()
+            c.indptr, c.indices, c.weights, g, c.n_gaussians, torch.get_num_threads()
         )
     else:
         out = np.asarray(c.matrix(g.dtype).T @ g)
