@@ -20,7 +20,9 @@ from typing import Any
 
 #: Benchmark modules, in report order. A module listed here that is not importable
 #: (its optional dependencies missing) is reported as skipped.
-BENCHMARKS: tuple[str, ...] = ("store", "queries", "render", "edges", "build", "reasoning")
+BENCHMARKS: tuple[str, ...] = (
+    "store", "queries", "render", "edges", "build", "scale", "reasoning",
+)  # fmt: skip
 
 
 @dataclass(frozen=True, slots=True)

@@ -21,7 +21,6 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse as sp
 import torch
 
 from causalsplat.field.config import FieldConfig
@@ -35,7 +34,7 @@ class _ViewTerms:
     """Per-view constants of the loss (torch): see the module docstring."""
 
     pixels: torch.Tensor  # (P,) int64 covered pixels
-    weights: torch.Tensor  # (M, P) float32 sparse COO, W_m on the covered pixels
+    weights: torch.Tensor  # (M, P) float32 dense, W_m on the covered pixels
     weight_sums: torch.Tensor  # (M,) float32
     negative: torch.Tensor  # (P, M) bool, pixel may serve as a negative of mask m
     n_pos: torch.Tensor  # (M,) float32 pixels per mask
@@ -46,12 +45,10 @@ def _view_terms(vm: ViewMasks) -> _ViewTerms:
     member = (w > 0).astype(np.float32).tocsr()
     overlap = (member @ member.T) > 0  # (M, M): masks sharing a pixel (incl. itself)
     blocked = (member.T @ overlap.astype(np.float32)).toarray() > 0  # (P, M)
-    coo = sp.coo_matrix(w)
-    indices = torch.from_numpy(np.vstack([coo.row, coo.col]).astype(np.int64))
-    weights = torch.sparse_coo_tensor(
-        indices, torch.from_numpy(coo.data.astype(np.float32)), size=w.shape,
-        check_invariants=True,
-    ).coalesce()  # fmt: skip
+    # Dense: (M, P) is the size of the (P, M) similarities the loss forms anyway, and a
+    # dense product (and its gradient) costs a fraction of a sparse COO one, which
+    # coalesces and transposes its indices at each step.
+    weights = torch.from_numpy(w.toarray().astype(np.float32, copy=False))
     return _ViewTerms(
         pixels=torch.from_numpy(vm.pixels.astype(np.int64)),
         weights=weights,
@@ -67,7 +64,7 @@ def contrastive_loss(
     """The loss of one view (module docstring) from its (H*W, C) feature render."""
     f = rendered[terms.pixels]
     unit = f / f.norm(dim=1, keepdim=True).clamp_min(1e-8)
-    summed = torch.sparse.mm(terms.weights.to(f.dtype), unit)  # (M, C)
+    summed = terms.weights.to(f.dtype) @ unit  # (M, C)
     length = summed.norm(dim=1)
     positive = 1.0 - length / terms.weight_sums.to(f.dtype).clamp_min(1e-12)
     proto = summed / length.clamp_min(1e-12)[:, None]
