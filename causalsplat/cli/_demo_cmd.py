@@ -2,9 +2,10 @@
 
 It writes a synthetic room (Gaussians, cameras, images, noisy SAM-like masks, GT and
 queries), builds it (feature field, HDBSCAN entities, spatial edges) into SQLite, exports
-Turtle, the labelled PLY and a top-down figure of the graph, and asks the offline reasoner
-one generated question of each reasoning level, printing each program, its answer, whether
-the answer is the ground truth and its 3D IoU on the Gaussians, then the stage timings.
+Turtle, the PLY with the entity of each Gaussian beside it and a top-down figure of the
+graph, and asks the offline reasoner one generated question of each reasoning level,
+printing each program, its answer, whether the answer is the ground truth and its 3D IoU
+on the Gaussians, then the stage timings.
 """
 
 from __future__ import annotations
@@ -40,7 +41,6 @@ def demo(output: Path, size: str, seed: int, db_url: str | None, as_json: bool) 
 
     from causalsplat.api import open_store
     from causalsplat.eval.reasoning import QueriesFile, evaluate_queries, read_queries
-    from causalsplat.export import draw_scene_graph, export_labelled_ply
     from causalsplat.synth import synth_scene
 
     folder = output / "scene"
@@ -58,13 +58,14 @@ def demo(output: Path, size: str, seed: int, db_url: str | None, as_json: bool) 
         report = scene.build_report
         assert report is not None
         graph = scene.graph
-        labels = scene.gaussian_labels()
         turtle = output / f"{scene.id}.ttl"
         scene.export_rdf(turtle, format="turtle")
+        ply = scene.export_ply(output / f"{scene.id}.ply")
         files = {
             "turtle": turtle,
-            "ply": export_labelled_ply(graph, labels, output / f"{scene.id}_entities.ply")[0],
-            "figure": draw_scene_graph(graph, output / f"{scene.id}_graph.png"),
+            "ply": ply.ply,
+            "labels": ply.labels_npy,
+            "figure": scene.export_figure(output / f"{scene.id}_graph.png"),
         }
         queries = read_queries(folder / "queries.json")
         picked = [next(q for q in queries.queries if q.type == t) for t in LEVELS

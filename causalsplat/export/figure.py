@@ -9,10 +9,10 @@ colour per relation type (one direction of each inverse pair; ``near`` is left o
 
 from __future__ import annotations
 
-import hashlib
 from pathlib import Path
 
 from causalsplat.errors import MissingDependencyError
+from causalsplat.export._palette import category_color
 from causalsplat.export.source import ExportError
 from graph_store import RelationType, SceneGraph
 
@@ -25,11 +25,6 @@ EDGE_COLORS: dict[RelationType, tuple[int, int, int]] = {
 }
 STRUCTURE = ("floor", "wall", "ceiling")
 _AXES = {"z": (0, 1), "y": (0, 2), "x": (1, 2)}
-
-
-def _category_color(category: str) -> tuple[int, int, int]:
-    h = hashlib.sha256(category.encode()).digest()
-    return (40 + h[0] % 170, 40 + h[1] % 170, 40 + h[2] % 170)
 
 
 def draw_scene_graph(graph: SceneGraph, out: str | Path, *, width: int = 1200) -> Path:
@@ -60,7 +55,7 @@ def draw_scene_graph(graph: SceneGraph, out: str | Path, *, width: int = 1200) -
     for e in sorted(graph.entities, key=lambda e: e.category not in STRUCTURE):
         structural = e.category in STRUCTURE
         (ax, ay), (bx, by) = px(e.bbox_min[a], e.bbox_max[b]), px(e.bbox_max[a], e.bbox_min[b])
-        color = (200, 200, 200) if structural else _category_color(e.category)
+        color = (200, 200, 200) if structural else category_color(e.category)
         draw.rectangle([ax, ay, max(bx, ax + 1), max(by, ay + 1)], outline=color,
                        width=1 if structural else 2)  # fmt: skip
     shown = {(r.src, r.dst, r.type) for r in graph.relations if r.type in EDGE_COLORS}
@@ -78,7 +73,7 @@ def draw_scene_graph(graph: SceneGraph, out: str | Path, *, width: int = 1200) -
         if e.category in STRUCTURE:
             continue
         cx, cy = px(e.centroid[a], e.centroid[b])
-        draw.ellipse([cx - 3, cy - 3, cx + 3, cy + 3], fill=_category_color(e.category))
+        draw.ellipse([cx - 3, cy - 3, cx + 3, cy + 3], fill=category_color(e.category))
         draw.text((cx + 5, cy - 6), f"{e.id} {e.category}", fill=(20, 20, 20))
     top = image.height - legend + 20
     draw.text((margin, top - 16), f"{graph.scene_id}: {len(graph.entities)} entities, "
