@@ -10,6 +10,7 @@ on the Gaussians, then the stage timings.
 
 from __future__ import annotations
 
+import shlex
 import shutil
 import sys
 from pathlib import Path
@@ -125,8 +126,8 @@ def _print(doc: dict[str, Any]) -> None:
         tag = " (cached)" if stage["cached"] else ""
         click.echo(f"   {stage['name']:<10} {stage['seconds']:7.2f} s{tag}")
     click.echo(f"   peak memory {b['peak_rss_mib']:.0f} MiB")
-    click.echo(f"\nquery it again: {_command()} ask 'where can I sit?' --scene {doc['scene_id']} "
-               f"--db {doc['db']}")  # fmt: skip
+    args = ["ask", "where can I sit?", "--scene", doc["scene_id"], "--db", doc["db"]]
+    click.echo(f"\nquery it again: {_command()} {shlex.join(args)}")
 
 
 def _command() -> str:
@@ -137,8 +138,10 @@ def _command() -> str:
     if found is not None and Path(found).resolve() == script.resolve():
         return "causalsplat"
     if not script.exists():
-        return f"{sys.executable} -m causalsplat"
+        return f"{shlex.quote(sys.executable)} -m causalsplat"
     try:
-        return str(script.relative_to(Path.cwd()))
+        relative = script.relative_to(Path.cwd())
     except ValueError:
-        return str(script)
+        return shlex.quote(str(script))
+    # a bare name would be looked up on PATH, not here
+    return shlex.quote(str(relative) if len(relative.parts) > 1 else f"./{relative}")

@@ -73,3 +73,25 @@ def test_demo_text_output(tmp_path: Path) -> None:
                            timeout=COMMAND_TIMEOUT_S)  # fmt: skip
     assert again.returncode == 0, again.stderr
     assert "answered by offline" in again.stdout
+
+
+def test_the_hint_names_this_interpreter_as_the_shell_finds_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The closing hint's command: the venv's script by a path the shell does not look up on
+    PATH (``./causalsplat`` in its own folder), quoted; ``python -m`` when there is none."""
+    from causalsplat.cli._demo_cmd import _command
+
+    bin_dir = tmp_path / "my env" / "bin"
+    bin_dir.mkdir(parents=True)
+    monkeypatch.setattr("sys.executable", str(bin_dir / "python"))
+    monkeypatch.setenv("PATH", "/nonexistent")
+    assert _command() == f"{shlex.quote(str(bin_dir / 'python'))} -m causalsplat"
+    (bin_dir / "causalsplat").write_text("#!/bin/sh\n")
+    (bin_dir / "causalsplat").chmod(0o755)
+    monkeypatch.chdir(tmp_path)
+    assert _command() == "'my env/bin/causalsplat'"
+    monkeypatch.chdir(bin_dir)
+    assert _command() == "./causalsplat"
+    monkeypatch.setenv("PATH", str(bin_dir))
+    assert _command() == "causalsplat"
