@@ -147,7 +147,7 @@ def draw_scene_graph(graph: SceneGraph, out: str | Path, *, width: int = 1200) -
     probe = ImageDraw.Draw(Image.new("RGB", (1, 1)))
 
     def measure(text: str) -> tuple[float, float]:
-        left, top, right, bottom = probe.textbbox((0, 0), text)
+        _, _, right, bottom = probe.textbbox((0, 0), text)
         return float(right), float(bottom)
 
     lay = layout_scene_graph(graph, measure, width=width)
@@ -157,7 +157,10 @@ def draw_scene_graph(graph: SceneGraph, out: str | Path, *, width: int = 1200) -
     by_id = {e.id: e for e in graph.entities}
     for e in sorted(graph.entities, key=lambda e: e.category not in STRUCTURE):
         structural = e.category in STRUCTURE
-        (ax, ay), (bx, by) = lay.px(e.bbox_min[a], e.bbox_max[b]), lay.px(e.bbox_max[a], e.bbox_min[b])
+        (ax, ay), (bx, by) = (
+            lay.px(e.bbox_min[a], e.bbox_max[b]),
+            lay.px(e.bbox_max[a], e.bbox_min[b]),
+        )
         color = (200, 200, 200) if structural else category_color(e.category)
         draw.rectangle([ax, ay, max(bx, ax + 1), max(by, ay + 1)], outline=color,
                        width=1 if structural else 2)  # fmt: skip

@@ -42,9 +42,7 @@ def overlay_mask(image: np.ndarray, mask: np.ndarray) -> np.ndarray:
     colour = np.asarray(ANSWER_RGB, dtype=np.float64)
     out[mask] = 0.5 * rgb[mask] + 0.5 * colour
     padded = np.pad(mask, 1, constant_values=False)
-    interior = (
-        padded[:-2, 1:-1] & padded[2:, 1:-1] & padded[1:-1, :-2] & padded[1:-1, 2:] & mask
-    )
+    interior = padded[:-2, 1:-1] & padded[2:, 1:-1] & padded[1:-1, :-2] & padded[1:-1, 2:] & mask
     out[mask & ~interior] = colour
     return np.clip(np.rint(out), 0, 255).astype(np.uint8)
 

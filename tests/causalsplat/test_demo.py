@@ -44,7 +44,8 @@ def test_demo_builds_exports_and_answers_every_level_correctly(
     rdf = rdflib.Graph().parse(doc["files"]["turtle"], format="turtle")
     assert len(rdf) > 10 * len(graph.entities)
     # the PLY is the scene folder's, unchanged; beside it, each Gaussian's entity
-    assert Path(doc["files"]["ply"]).read_bytes() == (out / "scene" / "point_cloud.ply").read_bytes()
+    source_ply = out / "scene" / "point_cloud.ply"
+    assert Path(doc["files"]["ply"]).read_bytes() == source_ply.read_bytes()
     np.testing.assert_array_equal(np.load(doc["files"]["labels"]), labels)
     assert read_gaussian_ply(doc["files"]["ply"]).scene.n == labels.size
     assert Path(doc["files"]["figure"]).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

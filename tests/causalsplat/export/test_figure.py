@@ -45,7 +45,7 @@ def _check(lay: FigureLayout, graph: SceneGraph) -> None:
     dots = [(x - 3, y - 3, x + 3, y + 3) for x, y in (label.anchor for label in lay.labels)]
     for label in lay.labels:
         x0, y0, x1, y1 = label.box
-        assert 0 <= x0 and x1 <= lay.width and 0 <= y0 and y1 <= lay.legend_top
+        assert x0 >= 0 and y0 >= 0 and x1 <= lay.width and y1 <= lay.legend_top
         assert all(_disjoint(label.box, dot) for dot in dots), label
         w, h = _measure(label.text)
         assert (x1 - x0, y1 - y0) == pytest.approx((w + 4, h + 4))

@@ -77,7 +77,7 @@ def _synthetic_ply(tmp_path: Path) -> tuple[Path, np.ndarray]:
 @pytest.mark.shared_data
 def test_plain_export_of_the_inria_sample_is_the_source_file(tmp_path: Path) -> None:
     source = shared_data_path("inria_3dgs_ply_sample", "point_cloud_iter7000.ply")
-    folder, graph, labels = _scene_folder(tmp_path, source)
+    _, graph, labels = _scene_folder(tmp_path, source)
     out = tmp_path / "out" / "room.ply"
     out.parent.mkdir()
     done = export_labelled_ply(graph, labels, out)
@@ -112,8 +112,8 @@ def test_embedded_export_of_the_inria_sample_appends_one_int(tmp_path: Path) -> 
     assert head == src_head.replace(
         b"end_header\n", f"property int {EMBEDDED_PROPERTY}\nend_header\n".encode()
     )
-    records = np.frombuffer(out.read_bytes()[len(head):], dtype=np.uint8).reshape(9080, 62 * 4 + 4)
-    src = np.frombuffer(source.read_bytes()[len(src_head):], dtype=np.uint8).reshape(9080, 62 * 4)
+    records = np.frombuffer(out.read_bytes()[len(head) :], dtype=np.uint8).reshape(9080, 62 * 4 + 4)
+    src = np.frombuffer(source.read_bytes()[len(src_head) :], dtype=np.uint8).reshape(9080, 62 * 4)
     np.testing.assert_array_equal(records[:, :-4], src)
     np.testing.assert_array_equal(records[:, -4:].copy().view("<i4").ravel(), labels)
 
