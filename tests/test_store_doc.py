@@ -27,6 +27,7 @@ from graph_store import (
     Entity,
     SceneGraph,
     SceneMeta,
+    decode_labels,
     open_store,
 )
 from graph_store.models import metadata
@@ -190,3 +191,39 @@ def test_the_sqlite3_examples_run(store: Path, tmp_path: Path) -> None:
                 assert got == expected, command
             ran += 1
     assert ran == 7
+
+
+@pytest.mark.postgres
+def test_postgres_has_the_documented_columns_and_types(postgres_url: str) -> None:
+    """The same tables and columns on PostgreSQL, the types the page names, the ``->>``
+    of the psql example, and the labels blob as psycopg returns it."""
+    import sqlalchemy as sa
+
+    graph, labels = _room()
+    with open_store(postgres_url) as s:
+        s.save_scene(graph, gaussian_labels=labels)
+        with s.engine.connect() as conn:
+            rows = conn.execute(sa.text(
+                "SELECT table_name, column_name, data_type FROM information_schema.columns"
+                " WHERE table_schema = 'public' ORDER BY table_name, ordinal_position"
+            )).all()  # fmt: skip
+            gap = conn.execute(sa.text(
+                "SELECT evidence->>'gap' FROM relations WHERE scene_id = 'room'"
+                " AND type = 'supported_by' AND src = 2 AND dst = 1"
+            )).scalar_one()  # fmt: skip
+            data = conn.execute(sa.text("SELECT data FROM gaussian_labels")).scalar_one()
+    live: dict[str, list[str]] = {}
+    types = {}
+    for table, column, data_type in rows:
+        live.setdefault(table, []).append(column)
+        types[(table, column)] = data_type
+    assert live == _sections(_text())
+    assert types[("relations", "evidence")] == "json"
+    assert types[("gaussian_labels", "data")] == "bytea"
+    assert types[("scenes", "created_at")] == "timestamp with time zone"
+    assert types[("entities", "cx")] == "double precision"
+    [cup_on_table] = [
+        r for r in graph.relations if (r.src, r.type.value, r.dst) == (2, "supported_by", 1)
+    ]
+    assert float(gap) == cup_on_table.evidence_dict["gap"]
+    np.testing.assert_array_equal(decode_labels(data, count=labels.size), labels)
