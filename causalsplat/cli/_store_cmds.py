@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -225,7 +226,8 @@ def _export_built(
     for path in shown:
         click.echo(f"wrote {path}")
     if len(paths) > len(shown):
-        click.echo(f"  and {len(paths) - len(shown)} more in {paths[-1].parent}")
+        rest = os.path.commonpath([p.parent for p in paths[len(shown) :]])
+        click.echo(f"  and {len(paths) - len(shown)} more under {rest}")
 
 
 def _parse_binding(text: str) -> tuple[str, Any]:
