@@ -131,3 +131,27 @@ def test_an_edited_ply_is_refused(built_db: tuple[str, Path], tmp_path: Path) ->
         with pytest.raises(ExportError, match="changed since"):
             export_labelled_ply(scene.graph, scene.gaussian_labels(), tmp_path / "o.ply",
                                 source=edited)  # fmt: skip
+
+
+def test_overlays_render_a_view_without_an_image(
+    built_db: tuple[str, Path], tmp_path: Path
+) -> None:
+    """A scene folder without images/: the overlay is drawn over the view rendered from the
+    Gaussians (through the API, one view)."""
+    from causalsplat.build.folder import read_cameras
+    from causalsplat.render import render_rgb
+
+    url, folder = built_db
+    bare = tmp_path / "bare"
+    shutil.copytree(folder, bare, ignore=shutil.ignore_patterns("images"))
+    with open_store(url) as store:
+        scene = store.scene("t")
+        answer = scene.ask("where can I wash my hands?")
+        paths = scene.export_masks(answer.entity_ids, tmp_path / "m", source=bare,
+                                   views=["view_002"], overlay=True)  # fmt: skip
+    assert [p.relative_to(tmp_path).as_posix() for p in paths] == [
+        "m/view_002.png", "m/overlay/view_002.png"]  # fmt: skip
+    [camera] = [c for c in read_cameras(bare)[1] if Path(c.name).stem == "view_002"]
+    image = render_rgb(read_gaussian_ply(bare / "point_cloud.ply").scene, camera)
+    mask = np.asarray(Image.open(paths[0])) > 0
+    np.testing.assert_array_equal(np.asarray(Image.open(paths[1])), overlay_mask(image, mask))
