@@ -39,6 +39,7 @@ if TYPE_CHECKING:
 
     from causalsplat.build import BuildConfig, BuildResult
     from causalsplat.eval.reasoning import EvalReport
+    from causalsplat.export import PlyExport
     from causalsplat.reason import Answer, Reasoner, SceneContext
     from graph_store.rdf import RdfView, SparqlResult
     from queries import GraphQuery, QueryResult
@@ -300,6 +301,45 @@ class Scene:
     ) -> str | None:
         """Export this scene as RDF (see :meth:`Store.export_rdf`)."""
         return self.store.export_rdf(path, scene_ids=[self.id], format=format, evidence=evidence)
+
+    def export_ply(
+        self,
+        path: str | Path,
+        *,
+        source: str | Path | None = None,
+        embed: bool = False,
+        per_entity_dir: str | Path | None = None,
+    ) -> PlyExport:
+        """A built scene's 3DGS PLY, unchanged, with its labels beside it (``embed=True``:
+        in it, as ``causalsplat_entity``); see :func:`causalsplat.export.export_labelled_ply`.
+        """
+        from causalsplat.export import export_labelled_ply
+
+        return export_labelled_ply(self.graph, self.gaussian_labels(), path, source=source,
+                                   embed=embed, per_entity_dir=per_entity_dir)  # fmt: skip
+
+    def export_masks(
+        self,
+        entity_ids: Iterable[int],
+        out_dir: str | Path,
+        *,
+        source: str | Path | None = None,
+        views: Sequence[str] | None = None,
+        overlay: bool = False,
+    ) -> list[Path]:
+        """Per-view PNG masks of some entities' Gaussians (e.g. an answer's
+        ``entity_ids``), optionally drawn over the views' images; see
+        :func:`causalsplat.export.export_answer_masks`."""
+        from causalsplat.export import export_answer_masks
+
+        return export_answer_masks(self.graph, self.gaussian_labels(), entity_ids, out_dir,
+                                   source=source, views=views, overlay=overlay)  # fmt: skip
+
+    def export_figure(self, path: str | Path, *, width: int = 1200) -> Path:
+        """A top-down PNG of the scene graph; see :func:`causalsplat.export.draw_scene_graph`."""
+        from causalsplat.export import draw_scene_graph
+
+        return draw_scene_graph(self.graph, path, width=width)
 
     # -- reasoning ---------------------------------------------------------------------
 

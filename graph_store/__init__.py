@@ -23,6 +23,7 @@ from graph_store.errors import (
     StoreConnectionError,
     StoreNotFoundError,
 )
+from graph_store.labels import decode_labels
 from graph_store.repository import GraphStore, SceneSummary, open_store
 from graph_store.types import (
     STORED_RELATION_TYPES,
@@ -66,5 +67,6 @@ __all__ = [
     "StoreConnectionError",
     "StoreNotFoundError",
     "View",
+    "decode_labels",
     "open_store",
 ]

@@ -4,6 +4,7 @@ A built scene keeps, for each of its N Gaussians, the local id of the entity it 
 to (``-1``: none). That array is what turns a persisted answer back into a 3D mask (and,
 through the renderer, 2D masks) without retraining. It is stored as one row per scene:
 little-endian int32, zlib-compressed, with its length and SHA-256 checked on load.
+:func:`decode_labels` reads such a blob back (from any client: see ``docs/store.md``).
 """
 
 from __future__ import annotations
@@ -18,8 +19,9 @@ import numpy.typing as npt
 
 from graph_store.errors import GraphStoreError, InvalidSceneError
 
-_DTYPE = "<i4"
-_CODEC = "zlib"
+#: How the array is stored: little-endian int32, compressed with zlib.
+DTYPE = "<i4"
+CODEC = "zlib"
 
 
 @dataclass(frozen=True, slots=True)
@@ -61,27 +63,68 @@ def check_labels(
 
 
 def encode_labels(labels: npt.NDArray[np.int32]) -> EncodedLabels:
-    raw = np.ascontiguousarray(labels, dtype=_DTYPE).tobytes()
+    raw = np.ascontiguousarray(labels, dtype=DTYPE).tobytes()
     return EncodedLabels(
         count=int(labels.size),
-        dtype=_DTYPE,
-        codec=_CODEC,
+        dtype=DTYPE,
+        codec=CODEC,
         sha256=hashlib.sha256(raw).hexdigest(),
         data=zlib.compress(raw, 6),
     )
 
 
-def decode_labels(encoded: EncodedLabels, scene_id: str) -> npt.NDArray[np.int32]:
-    where = f"gaussian labels of scene {scene_id!r}"
-    if encoded.codec != _CODEC or encoded.dtype != _DTYPE:
-        raise GraphStoreError(f"{where}: unknown encoding {encoded.codec}/{encoded.dtype}")
+def decode_labels(
+    data: bytes | bytearray | memoryview,
+    *,
+    count: int | None = None,
+    sha256: str | None = None,
+    dtype: str = DTYPE,
+    codec: str = CODEC,
+) -> npt.NDArray[np.int32]:
+    """The ``(N,)`` int32 entity id per Gaussian (``-1``: none) from a stored labels blob.
+
+    ``data`` is the ``gaussian_labels.data`` column of a row as any client returns it
+    (``bytes`` from ``sqlite3``, ``memoryview``/``bytes`` from psycopg); ``count``,
+    ``sha256``, ``dtype`` and ``codec`` are the row's other columns: when given, they are
+    checked. Raises :class:`~graph_store.errors.GraphStoreError` for an unknown encoding or
+    a corrupt blob.
+
+    >>> import zlib
+    >>> blob = zlib.compress(np.array([-1, 4, 4, 7], dtype="<i4").tobytes())
+    >>> decode_labels(blob, count=4)
+    array([-1,  4,  4,  7], dtype=int32)
+    >>> decode_labels(blob, count=5)
+    Traceback (most recent call last):
+    ...
+    graph_store.errors.GraphStoreError: gaussian labels are corrupt: 4 values, expected 5
+    """
+    where = "gaussian labels"
+    if codec != CODEC or dtype != DTYPE:
+        raise GraphStoreError(f"{where}: unknown encoding {codec}/{dtype}")
     try:
-        raw = zlib.decompress(encoded.data)
+        raw = zlib.decompress(bytes(data))
     except zlib.error as exc:
         raise GraphStoreError(f"{where} are corrupt: {exc}") from exc
-    if hashlib.sha256(raw).hexdigest() != encoded.sha256:
+    if sha256 is not None and hashlib.sha256(raw).hexdigest() != sha256:
         raise GraphStoreError(f"{where} are corrupt: checksum mismatch")
-    array = np.frombuffer(raw, dtype=_DTYPE)
-    if array.size != encoded.count:
-        raise GraphStoreError(f"{where} are corrupt: {array.size} values, expected {encoded.count}")
+    if len(raw) % 4:
+        raise GraphStoreError(f"{where} are corrupt: {len(raw)} bytes is no whole int32 array")
+    array = np.frombuffer(raw, dtype=DTYPE)
+    if count is not None and array.size != count:
+        raise GraphStoreError(f"{where} are corrupt: {array.size} values, expected {count}")
     return array.astype(np.int32)
+
+
+def decode_row(encoded: EncodedLabels, scene_id: str) -> npt.NDArray[np.int32]:
+    """:func:`decode_labels` of a stored row, with the scene named in any error."""
+    try:
+        return decode_labels(
+            encoded.data,
+            count=encoded.count,
+            sha256=encoded.sha256,
+            dtype=encoded.dtype,
+            codec=encoded.codec,
+        )
+    except GraphStoreError as exc:
+        message = str(exc).replace("gaussian labels", f"gaussian labels of scene {scene_id!r}", 1)
+        raise GraphStoreError(message) from exc

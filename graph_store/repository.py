@@ -42,7 +42,7 @@ from graph_store.errors import (
     StoreConnectionError,
     StoreNotFoundError,
 )
-from graph_store.labels import EncodedLabels, check_labels, decode_labels, encode_labels
+from graph_store.labels import EncodedLabels, check_labels, decode_row, encode_labels
 from graph_store.types import (
     Attribute,
     AttributeSource,
@@ -347,7 +347,7 @@ class GraphStore:
         encoded = EncodedLabels(
             cols["count"], cols["dtype"], cols["codec"], cols["sha256"], bytes(cols["data"])
         )
-        return decode_labels(encoded, scene_id)
+        return decode_row(encoded, scene_id)
 
     def save_gaussian_labels(self, scene_id: str, labels: npt.ArrayLike) -> None:
         """Set (or replace) the per-Gaussian labels of a stored scene, atomically."""

@@ -164,6 +164,19 @@ def read_scene_folder(
     )
 
 
+def find_view_image(root: Path, stem: str, width: int, height: int) -> np.ndarray | None:
+    """``images/<stem>.*`` of a scene folder as ``(H, W, 3)`` uint8 RGB, when there is one of
+    the camera's size (``width`` x ``height``); else ``None`` (render the view instead)."""
+    for path in sorted((root / "images").glob(f"{stem}.*")):
+        from PIL import Image
+
+        with Image.open(path) as im:
+            rgb = np.asarray(im.convert("RGB"))
+        if rgb.shape[:2] == (height, width):
+            return rgb
+    return None
+
+
 def find_ply(root: Path) -> Path:
     """The folder's 3DGS PLY (top-level file first, else the largest INRIA iteration)."""
     top = root / "point_cloud.ply"

@@ -36,7 +36,7 @@ from causalsplat.build.cache import StageCache, cache_key, default_cache_dir, pa
 from causalsplat.build.config import BuildConfig
 from causalsplat.build.coverage import Coverage, measure_coverage
 from causalsplat.build.errors import BuildError, CoverageError, StageError
-from causalsplat.build.folder import SceneFolder, read_scene_folder
+from causalsplat.build.folder import SceneFolder, find_view_image, read_scene_folder
 from causalsplat.build.scale import scale_folder
 from causalsplat.errors import CausalSplatError
 from causalsplat.field import (
@@ -400,14 +400,9 @@ def _graph(
 def view_image(folder: SceneFolder, view: int) -> np.ndarray:
     """View ``view``'s image: ``images/<stem>.*`` when the folder has it, else rendered."""
     cam = folder.cameras[view]
-    stem = folder.masks[view].view
-    for path in sorted((folder.root / "images").glob(f"{stem}.*")):
-        from PIL import Image
-
-        with Image.open(path) as im:
-            rgb = np.asarray(im.convert("RGB"))
-        if rgb.shape[:2] == (cam.height, cam.width):
-            return rgb
+    found = find_view_image(folder.root, folder.masks[view].view, cam.width, cam.height)
+    if found is not None:
+        return found
     from causalsplat.render import render_rgb
 
     return render_rgb(folder.gaussians, cam)

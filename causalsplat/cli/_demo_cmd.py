@@ -2,13 +2,15 @@
 
 It writes a synthetic room (Gaussians, cameras, images, noisy SAM-like masks, GT and
 queries), builds it (feature field, HDBSCAN entities, spatial edges) into SQLite, exports
-Turtle, the labelled PLY and a top-down figure of the graph, and asks the offline reasoner
-one generated question of each reasoning level, printing each program, its answer, whether
-the answer is the ground truth and its 3D IoU on the Gaussians, then the stage timings.
+Turtle, the PLY with the entity of each Gaussian beside it and a top-down figure of the
+graph, and asks the offline reasoner one generated question of each reasoning level,
+printing each program, its answer, whether the answer is the ground truth and its 3D IoU
+on the Gaussians, then the stage timings.
 """
 
 from __future__ import annotations
 
+import shlex
 import shutil
 import sys
 from pathlib import Path
@@ -40,7 +42,6 @@ def demo(output: Path, size: str, seed: int, db_url: str | None, as_json: bool) 
 
     from causalsplat.api import open_store
     from causalsplat.eval.reasoning import QueriesFile, evaluate_queries, read_queries
-    from causalsplat.export import draw_scene_graph, export_labelled_ply
     from causalsplat.synth import synth_scene
 
     folder = output / "scene"
@@ -58,13 +59,14 @@ def demo(output: Path, size: str, seed: int, db_url: str | None, as_json: bool) 
         report = scene.build_report
         assert report is not None
         graph = scene.graph
-        labels = scene.gaussian_labels()
         turtle = output / f"{scene.id}.ttl"
         scene.export_rdf(turtle, format="turtle")
+        ply = scene.export_ply(output / f"{scene.id}.ply")
         files = {
             "turtle": turtle,
-            "ply": export_labelled_ply(graph, labels, output / f"{scene.id}_entities.ply")[0],
-            "figure": draw_scene_graph(graph, output / f"{scene.id}_graph.png"),
+            "ply": ply.ply,
+            "labels": ply.labels_npy,
+            "figure": scene.export_figure(output / f"{scene.id}_graph.png"),
         }
         queries = read_queries(folder / "queries.json")
         picked = [next(q for q in queries.queries if q.type == t) for t in LEVELS
@@ -124,8 +126,8 @@ def _print(doc: dict[str, Any]) -> None:
         tag = " (cached)" if stage["cached"] else ""
         click.echo(f"   {stage['name']:<10} {stage['seconds']:7.2f} s{tag}")
     click.echo(f"   peak memory {b['peak_rss_mib']:.0f} MiB")
-    click.echo(f"\nquery it again: {_command()} ask 'where can I sit?' --scene {doc['scene_id']} "
-               f"--db {doc['db']}")  # fmt: skip
+    args = ["ask", "where can I sit?", "--scene", doc["scene_id"], "--db", doc["db"]]
+    click.echo(f"\nquery it again: {_command()} {shlex.join(args)}")
 
 
 def _command() -> str:
@@ -136,8 +138,10 @@ def _command() -> str:
     if found is not None and Path(found).resolve() == script.resolve():
         return "causalsplat"
     if not script.exists():
-        return f"{sys.executable} -m causalsplat"
+        return f"{shlex.quote(sys.executable)} -m causalsplat"
     try:
-        return str(script.relative_to(Path.cwd()))
+        relative = script.relative_to(Path.cwd())
     except ValueError:
-        return str(script)
+        return shlex.quote(str(script))
+    # a bare name would be looked up on PATH, not here
+    return shlex.quote(str(relative) if len(relative.parts) > 1 else f"./{relative}")

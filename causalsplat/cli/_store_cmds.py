@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import os
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -105,9 +107,9 @@ def scenes(db_url: str, as_json: bool) -> None:
     type=click.Choice(["turtle", "ntriples", "jsonld", "ply", "masks", "png"]),
     default="turtle",
     show_default=True,
-    help="RDF (turtle, ntriples, jsonld; any scenes), or for one built scene: ply (the 3DGS "
-    "PLY with an entity_id property), masks (per-view PNG masks of --ask's answer), png (a "
-    "top-down figure of the scene graph).",
+    help="RDF (turtle, ntriples, jsonld; any scenes), or for one built scene: ply (the "
+    "scene's 3DGS PLY unchanged, its labels in OUT.labels.npy and OUT.labels.json), masks "
+    "(per-view PNG masks of --ask's answer), png (a top-down figure of the scene graph).",
 )
 @click.option(
     "-o", "--output", type=click.Path(path_type=Path), default=None,
@@ -123,8 +125,17 @@ def scenes(db_url: str, as_json: bool) -> None:
     default=None, help="ply: also write one PLY per entity into this folder.",
 )  # fmt: skip
 @click.option(
+    "--embed-labels", is_flag=True,
+    help="ply: append an int property causalsplat_entity to each vertex instead of writing "
+    "the labels beside the PLY (SIBR-style viewers then refuse the file).",
+)  # fmt: skip
+@click.option(
     "--ask", "question", default=None, help="masks: the instruction whose answer to draw."
 )
+@click.option(
+    "--overlay", is_flag=True,
+    help="masks: also draw each mask over its view's image, into OUTPUT/overlay/.",
+)  # fmt: skip
 @db_option
 @json_option
 def export(
@@ -134,13 +145,21 @@ def export(
     no_evidence: bool,
     source: Path | None,
     per_entity: Path | None,
+    embed_labels: bool,
     question: str | None,
+    overlay: bool,
     db_url: str,
     as_json: bool,
 ) -> None:
-    """Export stored scenes as RDF, or a built scene as a labelled PLY, answer masks or a figure."""
+    """Export stored scenes as RDF, or a built scene as its PLY and labels, answer masks or a
+    figure."""
+    if embed_labels and fmt != "ply":
+        fail("--embed-labels is an option of --format ply")
+    if overlay and fmt != "masks":
+        fail("--overlay is an option of --format masks")
     if fmt in ("ply", "masks", "png"):
-        _export_built(scene_ids, fmt, output, source, per_entity, question, db_url, as_json)
+        options = _BuiltOptions(source, per_entity, embed_labels, question, overlay)
+        _export_built(scene_ids, fmt, output, options, db_url, as_json)
         return
     with _open(db_url, create=False) as store:
         ids = list(scene_ids) or None
@@ -161,44 +180,54 @@ def export(
         click.echo(f"wrote {output} ({fmt})")
 
 
+@dataclass(frozen=True, slots=True)
+class _BuiltOptions:
+    source: Path | None
+    per_entity: Path | None
+    embed_labels: bool
+    question: str | None
+    overlay: bool
+
+
 def _export_built(
     scene_ids: tuple[str, ...],
     fmt: str,
     output: Path | None,
-    source: Path | None,
-    per_entity: Path | None,
-    question: str | None,
+    options: _BuiltOptions,
     db_url: str,
     as_json: bool,
 ) -> None:
-    from causalsplat.export import draw_scene_graph, export_answer_masks, export_labelled_ply
-
     if len(scene_ids) != 1:
         fail(f"--format {fmt} exports one scene: pass exactly one --scene ID")
     if output is None:
         fail(f"--format {fmt} needs -o PATH")
-    if fmt == "masks" and not question:
+    if fmt == "masks" and not options.question:
         fail("--format masks draws the answer to an instruction: pass --ask TEXT")
     with _open(db_url, create=False) as store:
         scene = store.scene(scene_ids[0])
-        graph = scene.graph
         extra: dict[str, Any] = {}
         if fmt == "ply":
-            paths = export_labelled_ply(graph, scene.gaussian_labels(), output, source=source,
-                                        per_entity_dir=per_entity)  # fmt: skip
+            paths = scene.export_ply(output, source=options.source, embed=options.embed_labels,
+                                     per_entity_dir=options.per_entity).paths  # fmt: skip
         elif fmt == "masks":
-            answer = scene.ask(question)
+            assert options.question is not None
+            answer = scene.ask(options.question)
             extra = {"answer": list(answer.entity_ids), "explanation": answer.explanation}
-            paths = export_answer_masks(graph, scene.gaussian_labels(), answer.entity_ids,
-                                        output, source=source)  # fmt: skip
+            paths = scene.export_masks(answer.entity_ids, output, source=options.source,
+                                       overlay=options.overlay)  # fmt: skip
         else:
-            paths = [draw_scene_graph(graph, output)]
+            paths = [scene.export_figure(output)]
     if as_json:
         echo_json({"format": fmt, "paths": [str(p) for p in paths], **extra})
         return
     if "answer" in extra:
         click.echo(f"answer: entities {extra['answer']}")
-    click.echo(f"wrote {paths[0]}" + (f" and {len(paths) - 1} more" if len(paths) > 1 else ""))
+    shown = paths if len(paths) <= 3 else paths[:1]
+    for path in shown:
+        click.echo(f"wrote {path}")
+    if len(paths) > len(shown):
+        rest = os.path.commonpath([p.parent for p in paths[len(shown) :]])
+        click.echo(f"  and {len(paths) - len(shown)} more under {rest}")
 
 
 def _parse_binding(text: str) -> tuple[str, Any]:

@@ -56,6 +56,10 @@ def _deep(folder: Path) -> str:
     return str(_write(folder / "deep.json", '{"a":' * 100_000 + "1" + "}" * 100_000))
 
 
+def _typo(folder: Path) -> str:
+    return f"sqlite:///{folder / 'typo.db'}"
+
+
 def _good(folder: Path) -> str:
     return f"sqlite:///{folder / 'good.db'}"
 
@@ -75,6 +79,12 @@ SAME_POINT = {
     "answer_step": 2,
 }  # fmt: skip
 
+SINKS = {
+    "query_type": "spatial",
+    "steps": [{"op": "scene"}, {"op": "filter_category", "inputs": [0], "value": "sink"}],
+    "answer_step": 1,
+}
+
 CASES = [
     Case("scenes: a file that is not a database",
          lambda f: ["scenes", "--db", _corrupt(f)], "file is not a database"),
@@ -90,6 +100,29 @@ CASES = [
          lambda f: ["sparql", "ASK {}", "--db", f"sqlite:///{f / 'typo.db'}"], "no store at"),
     Case("db current: a store that does not exist is not created",
          lambda f: ["db", "current", "--db", f"sqlite:///{f / 'typo.db'}"], "no store at"),
+    Case("ask: a store that does not exist is not created",
+         lambda f: ["ask", "a chair", "--scene", "kitchen", "--db", _typo(f)],
+         "typo.db does not exist"),
+    Case("query: a store that does not exist is not created",
+         lambda f: ["query", _program_file(f, SINKS), "--scene", "kitchen",
+                    "--db", _typo(f)], "typo.db does not exist"),
+    Case("eval: a store that does not exist is not created",
+         lambda f: ["eval", str(_write(f / "q.json", '{"scene_id": "kitchen", "queries": []}')),
+                    "--scene", "kitchen", "--db", _typo(f)], "typo.db does not exist"),
+    Case("export: a store that does not exist is not created",
+         lambda f: ["export", "--db", _typo(f)], "typo.db does not exist"),
+    Case("export ply: a store that does not exist is not created",
+         lambda f: ["export", "--scene", "kitchen", "--format", "ply", "-o", str(f / "o.ply"),
+                    "--db", _typo(f)], "typo.db does not exist"),
+    Case("export png, --db before the command: a store that does not exist is not created",
+         lambda f: ["--db", _typo(f), "export", "--scene", "kitchen", "--format", "png",
+                    "-o", str(f / "o.png")], "typo.db does not exist"),
+    Case("export --embed-labels with another format",
+         lambda f: ["export", "--format", "turtle", "--embed-labels", "--db", _good(f)],
+         "--embed-labels is an option of --format ply"),
+    Case("export --overlay with another format",
+         lambda f: ["export", "--scene", "kitchen", "--format", "png", "--overlay",
+                    "-o", str(f / "o.png"), "--db", _good(f)], "--overlay is an option of"),
     Case("an empty --db", lambda f: ["scenes", "--db", ""], "database URL is empty"),
     Case("ask: an empty instruction",
          lambda f: ["ask", "", "--scene", "kitchen", "--db", _good(f)], "has no words"),

@@ -43,9 +43,11 @@ def test_demo_builds_exports_and_answers_every_level_correctly(
     # Turtle parses and names every entity
     rdf = rdflib.Graph().parse(doc["files"]["turtle"], format="turtle")
     assert len(rdf) > 10 * len(graph.entities)
-    # the PLY carries each Gaussian's entity
-    ply = read_gaussian_ply(doc["files"]["ply"])
-    np.testing.assert_array_equal(ply.extra["entity_id"], labels)
+    # the PLY is the scene folder's, unchanged; beside it, each Gaussian's entity
+    source_ply = out / "scene" / "point_cloud.ply"
+    assert Path(doc["files"]["ply"]).read_bytes() == source_ply.read_bytes()
+    np.testing.assert_array_equal(np.load(doc["files"]["labels"]), labels)
+    assert read_gaussian_ply(doc["files"]["ply"]).scene.n == labels.size
     assert Path(doc["files"]["figure"]).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     # one question per level, each answered with the generated ground truth
     levels = [q["level"] for q in doc["questions"]]
@@ -72,3 +74,25 @@ def test_demo_text_output(tmp_path: Path) -> None:
                            timeout=COMMAND_TIMEOUT_S)  # fmt: skip
     assert again.returncode == 0, again.stderr
     assert "answered by offline" in again.stdout
+
+
+def test_the_hint_names_this_interpreter_as_the_shell_finds_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The closing hint's command: the venv's script by a path the shell does not look up on
+    PATH (``./causalsplat`` in its own folder), quoted; ``python -m`` when there is none."""
+    from causalsplat.cli._demo_cmd import _command
+
+    bin_dir = tmp_path / "my env" / "bin"
+    bin_dir.mkdir(parents=True)
+    monkeypatch.setattr("sys.executable", str(bin_dir / "python"))
+    monkeypatch.setenv("PATH", "/nonexistent")
+    assert _command() == f"{shlex.quote(str(bin_dir / 'python'))} -m causalsplat"
+    (bin_dir / "causalsplat").write_text("#!/bin/sh\n")
+    (bin_dir / "causalsplat").chmod(0o755)
+    monkeypatch.chdir(tmp_path)
+    assert _command() == "'my env/bin/causalsplat'"
+    monkeypatch.chdir(bin_dir)
+    assert _command() == "./causalsplat"
+    monkeypatch.setenv("PATH", str(bin_dir))
+    assert _command() == "causalsplat"
