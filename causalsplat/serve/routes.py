@@ -1,0 +1,19 @@
+"""The route table: which handler answers which method and path (see :mod:`causalsplat.serve`)."""
+
+from __future__ import annotations
+
+from causalsplat.serve import api, static
+from causalsplat.serve.app import Route
+
+ROUTES: list[Route] = [
+    Route("GET", "/", static.index),
+    Route("GET", "/static/{path:path}", static.static_file),
+    Route("GET", "/api/scenes", api.list_scenes),
+    Route("GET", "/api/scenes/{scene_id}", api.get_scene),
+    Route("GET", "/api/scenes/{scene_id}/entities", api.list_entities),
+    Route("GET", "/api/scenes/{scene_id}/entities/{entity_id}", api.get_entity),
+    Route("GET", "/api/scenes/{scene_id}/relations", api.list_relations),
+    Route("GET", "/api/scenes/{scene_id}/labels", api.get_labels),
+    Route("POST", "/api/scenes/{scene_id}/ask", api.ask),
+    Route("POST", "/api/scenes/{scene_id}/query", api.query),
+]
