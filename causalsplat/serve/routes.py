@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from causalsplat.serve import api, static
 from causalsplat.serve.app import Route
+from causalsplat.serve.splats import get_splats
 
 ROUTES: list[Route] = [
     Route("GET", "/", static.index),
@@ -14,6 +15,7 @@ ROUTES: list[Route] = [
     Route("GET", "/api/scenes/{scene_id}/entities/{entity_id}", api.get_entity),
     Route("GET", "/api/scenes/{scene_id}/relations", api.list_relations),
     Route("GET", "/api/scenes/{scene_id}/labels", api.get_labels),
+    Route("GET", "/api/scenes/{scene_id}/splats", get_splats),
     Route("POST", "/api/scenes/{scene_id}/ask", api.ask),
     Route("POST", "/api/scenes/{scene_id}/query", api.query),
 ]
