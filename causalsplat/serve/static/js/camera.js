@@ -46,7 +46,7 @@ export class OrbitCamera {
     this.target = scale(add(lo, hi), 0.5);
     const radius = Math.max(0.25, 0.5 * Math.hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]));
     const half = Math.min(this.fovy, this.fovy * this.aspect()) / 2;
-    this.distance = (radius / Math.sin(half)) * 0.95;
+    this.distance = (radius / Math.sin(half)) * 0.8;
     this.near = Math.max(1e-3, this.distance / 500);
     this.far = this.distance * 20 + radius * 4;
     this.yaw = -Math.PI / 3;

@@ -40,11 +40,13 @@ const BOX_EDGES = [[0, 1], [2, 3], [4, 5], [6, 7], [0, 2], [1, 3], [4, 6], [5, 7
   [0, 4], [1, 5], [2, 6], [3, 7]];
 
 export class Overlay {
-  constructor(canvas, labelLayer, onPick) {
+  // onPick(id) on a click on a label, onFocus(id) on a double-click.
+  constructor(canvas, labelLayer, onPick, onFocus) {
     this.canvas = canvas;
     this.ctx = canvas.getContext("2d");
     this.labelLayer = labelLayer;
     this.onPick = onPick;
+    this.onFocus = onFocus;
     this.labels = new Map();
   }
 
@@ -63,6 +65,10 @@ export class Overlay {
       el.addEventListener("click", (ev) => {
         ev.stopPropagation();
         this.onPick(e.id);
+      });
+      el.addEventListener("dblclick", (ev) => {
+        ev.stopPropagation();
+        this.onFocus(e.id);
       });
       this.labelLayer.appendChild(el);
       this.labels.set(e.id, el);

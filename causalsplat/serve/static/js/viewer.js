@@ -57,7 +57,8 @@ class Viewer {
     this.glCanvas = $("gl");
     this.overlayCanvas = $("overlay");
     this.renderer = new SplatRenderer(this.glCanvas);
-    this.overlay = new Overlay(this.overlayCanvas, $("labels"), (id) => this.select(id));
+    this.overlay = new Overlay(this.overlayCanvas, $("labels"), (id) => this.select(id),
+      (id) => this.focus(id));
     this.camera = new OrbitCamera("z");
     this.scene = null;
     this.entities = [];
