@@ -9,6 +9,7 @@ so CI cannot pass without running them. Chromium draws WebGL2 with SwiftShader h
 from __future__ import annotations
 
 import base64
+import hashlib
 import io
 import os
 import subprocess
@@ -22,8 +23,10 @@ import pytest
 
 import causalsplat
 from causalsplat import open_store
+from causalsplat.io import Camera, GaussianScene, write_ply
 from causalsplat.serve import App, Server
 from causalsplat.serve.splats import HIGHLIGHT_COLOR, entity_palette
+from graph_store import Entity, SceneGraph, SceneMeta
 from tests.conftest import COMMAND_TIMEOUT_S, REPO_ROOT
 
 DEMO_KITCHEN = Path(causalsplat.__file__).parent / "data" / "demo_kitchen.json"
@@ -53,7 +56,33 @@ def store_url(tmp_path_factory: pytest.TempPathFactory) -> str:
         config = BuildConfig(field=FieldConfig(iterations=30))
         store.build(work / "room", scene_id="room", config=config, cache_dir=False)
         store.ingest_objects(DEMO_KITCHEN, scene_id="kitchen")
+        graph, labels = _one_gaussian(work / "one")
+        store.save_scene(graph, gaussian_labels=labels)
     return url
+
+
+#: One anisotropic, rotated Gaussian; an opacity under exp(4.5)/255 keeps its footprint
+#: inside the 3 standard deviations both renderers draw, so they must agree pixel for pixel.
+ONE = GaussianScene(
+    means=[[0.3, -0.25, 0.65]],
+    quats=[[0.9, 0.2, -0.3, 0.25]],
+    log_scales=np.log([[0.35, 0.12, 0.05]]),
+    opacity_logits=[np.log(0.3 / 0.7)],
+    sh=[[[0.8, -0.4, 0.1]]],
+)
+
+
+def _one_gaussian(folder: Path) -> tuple[SceneGraph, np.ndarray]:
+    folder.mkdir()
+    ply = folder / "point_cloud.ply"
+    write_ply(ply, ONE)
+    meta = SceneMeta(
+        scene_id="one", source="build",
+        provenance=(("point_cloud.ply", hashlib.sha256(ply.read_bytes()).hexdigest()),
+                    ("source_dir", str(folder))),
+    )  # fmt: skip
+    vase = Entity(0, "vase", (0.3, -0.25, 0.65), (-0.5, -0.5, 0.0), (0.5, 0.5, 1.0))
+    return SceneGraph(meta=meta, entities=(vase,)), np.zeros(1, dtype=np.int32)
 
 
 @pytest.fixture(scope="module")
@@ -179,7 +208,7 @@ def test_the_scene_renders_as_gaussians_in_entity_colours(page: Page, store_url:
     names = set(labels.all_inner_texts())
     assert {f"{e.category} {e.id}" for e in objects} <= names
     options = page.page.locator("#scene-picker option").evaluate_all("os => os.map(o => o.value)")
-    assert sorted(options) == ["kitchen", "room"]
+    assert sorted(options) == ["kitchen", "one", "room"]
 
 
 def test_an_answer_is_highlighted_in_3d(page: Page, store_url: str) -> None:
@@ -275,3 +304,32 @@ def test_the_screenshot_command(browser: Any, store_url: str, tmp_path: Path) ->
         assert image.size == (900, 600)
         pixels = np.asarray(image.convert("RGB")).astype(np.int32)
     assert _near(pixels, HIGHLIGHT_COLOR, tol=40) > 100
+
+
+def test_a_gaussian_is_drawn_as_the_project_rasterizer_draws_it(page: Page) -> None:
+    """The page's footprint of one Gaussian against :func:`causalsplat.render.render_alpha`
+    from the same camera (the page's OpenGL view turned into OpenCV's: y and z flipped)."""
+    from causalsplat.render import RasterConfig, render_alpha
+
+    page.open("one")
+    cam = page.page.evaluate(
+        """() => { const c = window.causalsplatViewer.camera;
+                   return {view: Array.from(c.view()), focal: c.focal()[0],
+                           width: c.width, height: c.height, dpr: devicePixelRatio}; }"""
+    )
+    pixels = page.canvas("#gl")
+    height, width, _ = pixels.shape
+    assert (width, height) == (round(cam["width"] * cam["dpr"]), round(cam["height"] * cam["dpr"]))
+    view = np.array(cam["view"], dtype=np.float64).reshape(4, 4).T  # column-major
+    camera = Camera(
+        "page", width, height, fx=cam["focal"] * cam["dpr"], fy=cam["focal"] * cam["dpr"],
+        cx=width / 2, cy=height / 2, T_cam_world=np.diag([1.0, -1.0, -1.0, 1.0]) @ view,
+    )  # fmt: skip
+    expected = render_alpha(ONE, camera, config=RasterConfig(backend="numpy"))
+    color = np.array([int(entity_palette([0])[0][i : i + 2], 16) for i in (1, 3, 5)])
+    alpha = (pixels[..., 0] - BACKGROUND[0]) / (color[0] - BACKGROUND[0])
+    assert expected.max() > 0.25 and (expected > 0.01).sum() > 2000  # a big footprint
+    assert np.abs(alpha - expected).max() < 0.02
+    np.testing.assert_allclose(
+        pixels, BACKGROUND + expected[..., None] * (color - BACKGROUND), atol=5
+    )
