@@ -132,8 +132,8 @@ class Page:
         self.page.on("request", self._request)
 
     def _console(self, message: Any) -> None:
-        if message.type in ("error", "warning"):
-            self.errors.append(f"console {message.type}: {message.text}")
+        if message.type == "error":
+            self.errors.append(f"console error: {message.text}")
 
     def _request(self, request: Any) -> None:
         if not request.url.startswith((self.base_url + "/", "data:")):

@@ -114,12 +114,14 @@ class Viewer {
     const token = ++this.loadToken;
     body.dataset.ready = "0";
     this.status(`loading ${id}…`);
-    const [doc, buffer] = await Promise.all([
+    // Without its Gaussians a scene is still drawn: boxes, labels and edges.
+    const [doc, splats] = await Promise.all([
       getJSON(sceneUrl(id)),
-      request(`${sceneUrl(id)}/splats${this.maxQuery()}`).then((r) => r.arrayBuffer()),
+      request(`${sceneUrl(id)}/splats${this.maxQuery()}`)
+        .then(async (r) => decodePayload(await r.arrayBuffer()))
+        .catch((err) => noSplats(err.message)),
     ]);
     if (token !== this.loadToken) return;
-    const splats = decodePayload(buffer);
     this.scene = doc;
     this.entities = doc.entities;
     this.byId = new Map(doc.entities.map((e) => [e.id, e]));
@@ -524,6 +526,13 @@ class Viewer {
       this.redraw();
     }, { passive: false });
   }
+}
+
+// What the page draws when the Gaussians could not be fetched (the reason is shown).
+function noSplats(reason) {
+  const header = { count: 0, total: 0, reason, palette: {}, highlight: "#ff00ff", arrays: [] };
+  return { header, position: new Float32Array(0), scale: new Float32Array(0),
+    rotation: new Int8Array(0), color: new Uint8Array(0), entity: new Int32Array(0) };
 }
 
 function hexToUnit(hex) {
