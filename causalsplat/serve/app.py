@@ -166,8 +166,10 @@ class App:
         self.limit = limit
         self.timeout_s = timeout_s
         self.routes: list[Route] = list(ROUTES if routes is None else routes)
+        #: Held while a SPARQL query runs: the store keeps one RDF view and one worker.
         self.sparql_lock = threading.Lock()
-        self._lock = threading.RLock()
+        self._work_lock = threading.RLock()
+        self._handles_lock = threading.Lock()
         self._scenes: dict[str, tuple[object, Scene]] = {}
 
     def add_route(self, method: str, pattern: str, handler: Handler) -> None:
@@ -175,15 +177,16 @@ class App:
         self.routes.append(Route(method.upper(), pattern, handler))
 
     def locked(self) -> threading.RLock:
-        """The lock that handlers hold while they use a scene handle (reasoning, queries)."""
-        return self._lock
+        """The lock handlers hold while a scene handle works (reasoning, programs): a handle
+        caches its reasoner and query state, which are not shared between threads."""
+        return self._work_lock
 
     def scene(self, scene_id: str) -> Scene:
         """The handle on a stored scene, reused while the stored scene is unchanged.
 
         Raises ``SceneNotFound`` (404) for an unknown id.
         """
-        with self._lock:
+        with self._handles_lock:
             summary = next((s for s in self.store.scenes() if s.scene_id == scene_id), None)
             if summary is None:
                 raise SceneNotFound(f"no scene {scene_id!r} in the store")

@@ -2,13 +2,15 @@
 
 from __future__ import annotations
 
-from causalsplat.serve import api, static
+from causalsplat.serve import api, sparql_protocol, static
 from causalsplat.serve.app import Route
 from causalsplat.serve.splats import get_splats
 
 ROUTES: list[Route] = [
     Route("GET", "/", static.index),
     Route("GET", "/static/{path:path}", static.static_file),
+    Route("GET", "/sparql", sparql_protocol.sparql),
+    Route("POST", "/sparql", sparql_protocol.sparql),
     Route("GET", "/api/scenes", api.list_scenes),
     Route("GET", "/api/scenes/{scene_id}", api.get_scene),
     Route("GET", "/api/scenes/{scene_id}/entities", api.list_entities),

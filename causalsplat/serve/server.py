@@ -57,10 +57,47 @@ def check_host(host: str, *, allow_remote: bool) -> None:
         )
 
 
+def _host_name(header: str) -> str:
+    """The host of a ``Host`` header, without its port or IPv6 brackets.
+
+    >>> _host_name("127.0.0.1:8000"), _host_name("[::1]:8000"), _host_name("localhost")
+    ('127.0.0.1', '::1', 'localhost')
+    """
+    header = header.strip().lower()
+    if header.startswith("["):
+        return header[1:].split("]", 1)[0]
+    return header.rsplit(":", 1)[0] if header.count(":") == 1 else header
+
+
+def loopback_host_header(header: str | None, bound: str) -> bool:
+    """Whether a request's ``Host`` names this machine's loopback interface (or ``bound``).
+
+    A web page cannot make a browser send such a request to another site's server, but
+    DNS rebinding can point a page's own name at 127.0.0.1; the server then sees that name
+    in ``Host`` and refuses the request.
+
+    >>> loopback_host_header("localhost:8000", "127.0.0.1")
+    True
+    >>> loopback_host_header("attacker.example:8000", "127.0.0.1")
+    False
+    """
+    if not header:
+        return True  # HTTP/1.0 clients may leave it out; a browser always sends it
+    name = _host_name(header)
+    if name in ("localhost", bound.lower()) or name.endswith(".localhost"):
+        return True
+    try:
+        return ipaddress.ip_address(name).is_loopback
+    except ValueError:
+        return False
+
+
 class _HTTPServer(ThreadingHTTPServer):
     daemon_threads = True  # a request still running does not keep the process alive
     app: App
     log: TextIO | None
+    host: str
+    check_host_header: bool
 
 
 class _Handler(BaseHTTPRequestHandler):
@@ -71,6 +108,12 @@ class _Handler(BaseHTTPRequestHandler):
     def _answer(self) -> None:
         app = self.server.app
         parts = urlsplit(self.path)
+        if self.server.check_host_header and not loopback_host_header(
+            self.headers.get("Host"), self.server.host
+        ):
+            return self._send(
+                error_response(403, "this server answers requests to its loopback address only")
+            )
         length_text = self.headers.get("Content-Length")
         body = b""
         if length_text is not None:
@@ -123,8 +166,10 @@ class Server:
     """An HTTP server for ``app`` on ``host:port`` (port 0: a free one; see :attr:`url`).
 
     Raises :class:`ServeError` for an address that is not loopback without
-    ``allow_remote``, or one that cannot be listened on. ``log``: where one line per
-    request goes (``None``: nowhere).
+    ``allow_remote``, or one that cannot be listened on. Without ``allow_remote``, a
+    request whose ``Host`` header names another machine is refused with 403 (see
+    :func:`loopback_host_header`). ``log``: where one line per request goes (``None``:
+    nowhere).
     """
 
     def __init__(
@@ -155,6 +200,8 @@ class Server:
             raise ServeError(f"cannot listen on {host}:{port}: {exc.strerror or exc}") from None
         self._httpd.app = app
         self._httpd.log = log
+        self._httpd.host = host
+        self._httpd.check_host_header = not allow_remote
         self.app = app
         self._thread: threading.Thread | None = None
 

@@ -178,3 +178,12 @@ def _has_ipv6() -> bool:
     except OSError:
         return False
     return True
+
+
+def test_a_request_for_another_host_name_is_refused(base_url: str) -> None:
+    """DNS rebinding: a page whose name now points at 127.0.0.1 sends its own name."""
+    refused = request(f"{base_url}/api/scenes", headers={"Host": "attacker.example:80"})
+    assert refused.status == 403 and "loopback" in refused.json()["error"]
+    port = base_url.rsplit(":", 1)[1]
+    for host in (f"localhost:{port}", f"127.0.0.1:{port}", f"[::1]:{port}"):
+        assert request(f"{base_url}/api/scenes", headers={"Host": host}).status == 200
