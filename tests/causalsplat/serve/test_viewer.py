@@ -16,7 +16,7 @@ import subprocess
 import sys
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 import numpy as np
 import pytest
@@ -36,7 +36,7 @@ BACKGROUND = np.array([21, 23, 28])  # the page's clear colour (0.082, 0.09, 0.1
 STRUCTURE = ("wall", "floor", "ceiling")  # not labelled unless selected or an answer
 
 
-def _missing(reason: str) -> None:
+def _missing(reason: str) -> NoReturn:
     if os.environ.get("CI", "").lower() == "true":
         pytest.fail(f"{reason}: CI must run the viewer tests")
     pytest.skip(reason)
