@@ -39,7 +39,7 @@ db-check: $(STAMP)
 
 # The wheel installed in a fresh venv without torch and used from outside the checkout: every
 # package file installed; ask (offline, and --reasoner vlm against the loopback test server),
-# query, sparql, export, scenes. About a minute; see .ci/wheel-check.
+# query, sparql, export, scenes, serve. About a minute; see .ci/wheel-check.
 wheel-check: $(STAMP)
 	PY=$(PY) PYTHON=$(PYTHON) bash .ci/wheel-check
 

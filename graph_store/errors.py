@@ -85,5 +85,10 @@ class SparqlResourceError(SparqlTimeoutError):
     """The query's worker process ran out of its memory limit (and was stopped)."""
 
 
+class SparqlFormatError(SparqlError, ValueError):
+    """A SPARQL result cannot be written in the format asked: a format of the other kind
+    of result (CSV for a graph, Turtle for a table), or text that XML 1.0 cannot hold."""
+
+
 class SparqlRowLimitError(SparqlError):
     """The query produced more rows than the caller's row limit (``on_limit="error"``)."""

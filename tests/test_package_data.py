@@ -8,7 +8,20 @@ import tomllib
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-DATA_SUFFIXES = (".json", ".gz", ".toml", ".npz", ".txt", ".ttl", ".mako", ".typed")
+DATA_SUFFIXES = (
+    ".json",
+    ".gz",
+    ".toml",
+    ".npz",
+    ".txt",
+    ".ttl",
+    ".mako",
+    ".typed",
+    ".html",
+    ".js",
+    ".css",
+    ".wasm",
+)
 
 
 def test_every_data_file_matches_a_package_data_glob() -> None:

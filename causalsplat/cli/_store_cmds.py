@@ -230,6 +230,9 @@ def _export_built(
         click.echo(f"  and {len(paths) - len(shown)} more under {rest}")
 
 
+_SPARQL_FORMATS = ["json", "xml", "csv", "tsv", "turtle", "ntriples", "nt", "jsonld", "rdfxml"]
+
+
 def _parse_binding(text: str) -> tuple[str, Any]:
     name, sep, value = text.partition("=")
     if not sep or not name:
@@ -253,8 +256,17 @@ def _parse_binding(text: str) -> tuple[str, Any]:
 @click.option("--limit", type=click.IntRange(min=1), default=10_000, show_default=True)
 @click.option("--timeout", type=click.FloatRange(min=0.001), default=30.0, show_default=True)
 @click.option("--backend", type=click.Choice(["auto", "oxigraph", "rdflib"]), default="auto")
+@click.option(
+    "--format", "fmt", type=click.Choice(_SPARQL_FORMATS), default=None,
+    help="W3C output: json, xml, csv, tsv (SELECT; json and xml for ASK); turtle, ntriples"
+    " (nt), jsonld, rdfxml (CONSTRUCT/DESCRIBE). Default: a plain table for SELECT,"
+    " true/false for ASK, Turtle for graphs.",
+)  # fmt: skip
 @db_option
-@json_option
+@click.option(
+    "--json", "as_json", is_flag=True,
+    help="SPARQL 1.1 Query Results JSON (JSON-LD for CONSTRUCT/DESCRIBE).",
+)  # fmt: skip
 def sparql(
     query: str | None,
     query_file: Path | None,
@@ -263,6 +275,7 @@ def sparql(
     limit: int,
     timeout: float,
     backend: str,
+    fmt: str | None,
     db_url: str,
     as_json: bool,
 ) -> None:
@@ -270,10 +283,14 @@ def sparql(
 
     QUERY is the query text ('-' reads stdin); or use --file. The prefixes csg:, bot:,
     geo:, rdf:, rdfs:, xsd: and owl: are predeclared. Updates, LOAD, SERVICE and FROM
-    are refused.
+    are refused. --json writes W3C SPARQL 1.1 Query Results JSON; CONSTRUCT and DESCRIBE
+    write RDF (Turtle unless --format says).
     """
     if (query is None) == (query_file is None):
         fail("give the query text or --file PATH (exactly one)")
+    fmt = {"nt": "ntriples"}.get(fmt or "", fmt)
+    if as_json and fmt not in (None, "json", "jsonld"):
+        fail(f"--json and --format {fmt} ask for two formats: give one")
     text = query_file.read_text(encoding="utf-8") if query_file else query
     if text == "-":
         text = sys.stdin.read()
@@ -286,15 +303,16 @@ def sparql(
         result = store.sparql(
             text, scene_ids=ids, bindings=bindings, limit=limit, timeout_s=timeout, backend=backend
         )
-    if as_json:
-        echo_json(result.to_json())
-        return
-    if result.kind == "ask":
+    if as_json and fmt is None:
+        fmt = "jsonld" if result.kind == "graph" else "json"
+    if fmt is not None or result.kind == "graph":
+        sys.stdout.write(result.serialize(fmt))
+    elif result.kind == "ask":
         click.echo("true" if result.boolean else "false")
-        return
-    click.echo("\t".join(result.columns))
-    for row in result.rows:
-        click.echo("\t".join("" if v is None else str(v) for v in row))
+    else:
+        click.echo("\t".join(result.columns))
+        for row in result.rows:
+            click.echo("\t".join("" if v is None else str(v) for v in row))
     if result.truncated:
         click.echo(f"(truncated at {limit} rows)", err=True)
 

@@ -1,8 +1,10 @@
 """The two SPARQL engines behind :class:`~graph_store.rdf.sparql.RdfView`.
 
 Both evaluate an admitted query (:class:`CheckedQuery`) with typed bindings and consume at
-most ``limit + 1`` results, checking a cancel flag between results; both turn RDF terms
-into the same Python values (:func:`literal_value`), so their answers compare equal.
+most ``limit + 1`` results, checking a cancel flag between results; both hand back the
+same typed terms (an IRI as ``str``, a blank node as ``"_:label"``, a literal as
+:class:`~graph_store.rdf._parse.Lit`), which :func:`term_value` turns into the same Python
+values, so their answers compare equal.
 
 * :class:`OxigraphBackend`: an in-memory pyoxigraph ``Store`` bulk-loaded from the
   N-Triples writer; bindings go in as a ``VALUES`` block of escaped, typed terms placed
@@ -25,6 +27,7 @@ from rdflib import BNode, Literal, URIRef, Variable
 from rdflib.plugins.stores.memory import Memory
 
 from graph_store.errors import SparqlError, SparqlSyntaxError
+from graph_store.rdf._parse import RDF_LANG_STRING, Lit, Term
 from graph_store.rdf._sparql_guard import CheckedQuery, QueryKind
 from graph_store.rdf._sparql_text import inject_values
 from graph_store.rdf.namespace import PREFIXES
@@ -62,11 +65,11 @@ class QueryCancelled(BaseException):
 
 @dataclass(frozen=True, slots=True)
 class RawResult:
-    """What a backend hands back: rows of Python values, at most ``limit + 1`` of them."""
+    """What a backend hands back: rows of terms (``None``: unbound), at most ``limit + 1``."""
 
     kind: QueryKind
     columns: tuple[str, ...]
-    rows: list[tuple[object, ...]]
+    rows: list[tuple[Term | None, ...]]
     boolean: bool | None
 
 
@@ -84,7 +87,18 @@ def literal_value(lexical: str, datatype: str | None) -> object:
     return lexical
 
 
-def _take(items: Iterable[tuple[object, ...]], limit: int, cancel: threading.Event) -> list[Any]:
+def term_value(term: Term | None) -> object:
+    """The Python value of a result term (see :attr:`~graph_store.rdf.SparqlResult.rows`)."""
+    if type(term) is Lit:
+        if term.datatype == _XSD_STRING or term.lang is not None:
+            return term.lexical
+        return literal_value(term.lexical, term.datatype)
+    return term
+
+
+def _take(
+    items: Iterable[tuple[Term | None, ...]], limit: int, cancel: threading.Event
+) -> list[Any]:
     rows = []
     for row in items:
         if cancel.is_set():
@@ -122,19 +136,17 @@ class OxigraphBackend:
         datatype = ox.NamedNode(str(term.datatype)) if term.datatype is not None else None
         return ox.Literal(str(term), datatype=datatype)
 
-    def _value(self, term: Any) -> object:
+    def _result_term(self, term: Any) -> Term | None:
         kind = type(term)
         if kind is self._named:
-            return term.value
+            return str(term.value)
         if kind is self._literal:
             datatype = term.datatype.value
-            if datatype == _XSD_STRING:
-                return term.value
-            return literal_value(term.value, datatype)
+            return Lit(term.value, datatype, term.language if datatype == RDF_LANG_STRING else None)
         if term is None:
             return None
         if kind is self._blank:
-            return "_:" + term.value
+            return "_:" + str(term.value)
         return str(term)
 
     def run(
@@ -158,7 +170,7 @@ class OxigraphBackend:
         limit: int,
         cancel: threading.Event,
     ) -> RawResult:
-        ox, value = self._ox, self._value
+        ox, value = self._ox, self._result_term
         text = inject_values(query.text, bindings) if bindings else query.text
         subs = None
         if text is None:  # no WHERE pattern to put a VALUES block in
@@ -171,7 +183,7 @@ class OxigraphBackend:
             triples = ((value(t.subject), value(t.predicate), value(t.object)) for t in result)
             return RawResult("graph", GRAPH_COLUMNS, _take(triples, limit, cancel), None)
         names = [v.value for v in result.variables]
-        rows: Iterator[tuple[object, ...]] = (tuple(value(t) for t in sol) for sol in result)
+        rows: Iterator[tuple[Term | None, ...]] = (tuple(value(t) for t in sol) for sol in result)
         if query.select_all:
             order = sorted(range(len(names)), key=names.__getitem__)
             names = [names[i] for i in order]
@@ -231,7 +243,7 @@ class RdflibBackend:
         return len(self.graph)
 
     @staticmethod
-    def _value(term: Any) -> object:
+    def _result_term(term: Any) -> Term | None:
         if term is None:
             return None
         if isinstance(term, URIRef):
@@ -239,8 +251,10 @@ class RdflibBackend:
         if isinstance(term, BNode):
             return "_:" + str(term)
         if isinstance(term, Literal):
-            datatype = str(term.datatype) if term.datatype is not None else None
-            return literal_value(str(term), datatype)
+            if term.language:
+                return Lit(str(term), RDF_LANG_STRING, term.language)
+            datatype = _XSD_STRING if term.datatype is None else str(term.datatype)
+            return Lit(str(term), datatype)
         return str(term)
 
     def run(
@@ -250,7 +264,7 @@ class RdflibBackend:
         limit: int,
         cancel: threading.Event,
     ) -> RawResult:
-        value = self._value
+        value = self._result_term
         _cancel_flags.event = cancel
         try:
             with _no_remote_graphs():

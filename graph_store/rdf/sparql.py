@@ -30,7 +30,7 @@ import re
 import sys
 import threading
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Literal, Protocol
 
 from rdflib import XSD, URIRef
@@ -42,12 +42,13 @@ from graph_store.errors import (
     SparqlRowLimitError,
     SparqlTimeoutError,
 )
-from graph_store.rdf._parse import have_pyoxigraph
+from graph_store.rdf._parse import Term, have_pyoxigraph
 from graph_store.rdf._sparql_backends import (
     OxigraphBackend,
     QueryCancelled,
     RawResult,
     RdflibBackend,
+    term_value,
 )
 from graph_store.rdf._sparql_guard import CheckedQuery, QueryKind, check_query, query_variables
 from graph_store.rdf._sparql_text import render_term
@@ -55,6 +56,7 @@ from graph_store.rdf._sparql_worker import QueryWorker, can_isolate, default_bud
 from graph_store.types import SceneGraph
 
 BackendName = Literal["auto", "oxigraph", "rdflib"]
+ResultFormat = Literal["json", "xml", "csv", "tsv", "turtle", "ntriples", "jsonld", "rdfxml"]
 _VARNAME_RE = re.compile(r"[^\W][\w\u00b7\u0300-\u036f\u203f\u2040]*\Z")
 
 
@@ -72,6 +74,10 @@ class SparqlResult:
         boolean: the answer of an ASK query, else ``None``.
         truncated: ``True`` when more than ``limit`` rows were available and only the
             first ``limit`` are returned.
+        terms: the same rows as RDF terms, which :meth:`serialize` writes: an IRI as
+            ``str``, a blank node as ``"_:label"``, a literal as a ``Lit(lexical,
+            datatype, lang)`` named tuple, unbound ``None``. Not compared: two results
+            are equal when their Python values are.
     """
 
     kind: QueryKind
@@ -79,6 +85,20 @@ class SparqlResult:
     rows: tuple[tuple[object, ...], ...]
     boolean: bool | None = None
     truncated: bool = False
+    terms: tuple[tuple[Term | None, ...], ...] = field(default=(), compare=False, repr=False)
+
+    def serialize(self, format: ResultFormat | None = None) -> str:
+        """The result as a W3C document: for SELECT and ASK the SPARQL 1.1 Query Results
+        ``"json"`` (the default), ``"xml"``, ``"csv"`` or ``"tsv"`` (not ASK); for
+        CONSTRUCT / DESCRIBE the RDF graph as ``"turtle"`` (the default), ``"ntriples"``,
+        ``"jsonld"`` or ``"rdfxml"``. A truncated result holds its first ``limit`` rows.
+
+        Raises :class:`~graph_store.errors.SparqlFormatError` for a format of the other
+        kind of result, and for text that XML cannot hold.
+        """
+        from graph_store.rdf.results import serialize_result
+
+        return serialize_result(self, format)
 
     def to_json(self) -> dict[str, Any]:
         """A JSON-ready dict of the fields (rows as lists)."""
@@ -210,12 +230,14 @@ class RdfView:
         truncated = len(raw.rows) > limit
         if truncated and on_limit == "error":
             raise SparqlRowLimitError(f"the query gives more than {limit} rows (limit={limit})")
+        kept = tuple(raw.rows[:limit])
         return SparqlResult(
             kind=raw.kind,
             columns=raw.columns,
-            rows=tuple(raw.rows[:limit]),
+            rows=tuple(tuple(term_value(t) for t in row) for row in kept),
             boolean=raw.boolean,
             truncated=truncated,
+            terms=kept,
         )
 
     def _run_with_timeout(
@@ -248,6 +270,18 @@ class RdfView:
         if isinstance(result, BaseException):
             raise result
         return result
+
+
+def query_kind(text: str) -> QueryKind:
+    """What ``text`` asks for: ``"select"``, ``"ask"`` or ``"graph"`` (CONSTRUCT, DESCRIBE).
+
+    Admits the text as :meth:`RdfView.query` does, so it raises the same errors for
+    updates, ``SERVICE``, ``FROM`` and syntax errors, before any view is built.
+
+    >>> query_kind("CONSTRUCT { ?s ?p ?o } WHERE { ?s ?p ?o }")
+    'graph'
+    """
+    return check_query(text).kind
 
 
 def _var_name(name: object) -> str:

@@ -71,11 +71,16 @@ def test_ingest_list_export_and_query(tmp_path: Path) -> None:
 
     query = "SELECT ?c WHERE { ?e csg:category ?c } ORDER BY ?c"
     result = json.loads(run("sparql", query, "--scene", "kitchen", "--json", db=db).stdout)
-    assert [r[0] for r in result["rows"]] == ["sink", "towel"]
+    assert result["head"]["vars"] == ["c"]
+    assert [b["c"] for b in result["results"]["bindings"]] == [
+        {"type": "literal", "value": "sink"},
+        {"type": "literal", "value": "towel"},
+    ]
     bound = run(
         "sparql", "SELECT ?e WHERE { ?e csg:category ?c }", "--bind", "c=towel", "--json", db=db
     ).stdout
-    assert len(json.loads(bound)["rows"]) == 1
+    [binding] = json.loads(bound)["results"]["bindings"]
+    assert binding["e"]["type"] == "uri"
 
 
 def test_errors_are_one_line_with_non_zero_exit_and_write_nothing(tmp_path: Path) -> None:

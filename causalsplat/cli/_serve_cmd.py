@@ -1,0 +1,67 @@
+"""The ``serve`` command: the local web app (SPARQL endpoint, JSON API, viewer)."""
+
+from __future__ import annotations
+
+import signal
+import sys
+from types import FrameType
+
+import click
+
+from causalsplat.cli._app import cli, db_option
+
+
+def _stop(signum: int, frame: FrameType | None) -> None:
+    raise KeyboardInterrupt
+
+
+@cli.command("serve")
+@click.option("--host", default="127.0.0.1", show_default=True, help="Address to listen on.")
+@click.option(
+    "--port", type=click.IntRange(0, 65535), default=8000, show_default=True,
+    help="Port to listen on (0: a free one, printed).",
+)  # fmt: skip
+@click.option(
+    "--allow-remote", is_flag=True,
+    help="Listen on an address that is not loopback (the app has no authentication).",
+)  # fmt: skip
+@click.option(
+    "--limit", type=click.IntRange(min=1), default=10_000, show_default=True,
+    help="The most rows a SPARQL answer holds (more are cut off).",
+)  # fmt: skip
+@click.option(
+    "--timeout", type=click.FloatRange(min=0.001), default=30.0, show_default=True,
+    help="Seconds a SPARQL query may run.",
+)  # fmt: skip
+@click.option("--quiet", is_flag=True, help="Do not log requests on stderr.")
+@db_option
+def serve(
+    host: str, port: int, allow_remote: bool, limit: int, timeout: float, quiet: bool, db_url: str
+) -> None:
+    """Serve a store over HTTP: a SPARQL 1.1 Protocol endpoint at /sparql, a JSON API at
+    /api/scenes and a 3D viewer at /.
+
+    Listens on 127.0.0.1 unless --host names another address and --allow-remote is
+    given. Prints the URL it listens on; stops on Ctrl-C or SIGTERM.
+    """
+    from causalsplat.api import open_store
+    from causalsplat.serve import App, Server
+
+    with open_store(db_url, create=False) as store:
+        app = App(store, limit=limit, timeout_s=timeout)
+        server = Server(app, host, port, allow_remote=allow_remote,
+                        log=None if quiet else sys.stderr)  # fmt: skip
+        # SIGINT too: a shell starts a background job with SIGINT ignored
+        previous = {sig: signal.signal(sig, _stop) for sig in (signal.SIGINT, signal.SIGTERM)}
+        click.echo(f"serving {store.graph_store.url} at {server.url} (Ctrl-C stops)", err=True)
+        click.echo(server.url)
+        sys.stdout.flush()
+        try:
+            server.serve_forever()
+        except KeyboardInterrupt:
+            pass
+        finally:
+            for sig, handler in previous.items():
+                signal.signal(sig, handler)
+            server.shutdown()
+    click.echo("stopped", err=True)

@@ -1,0 +1,63 @@
+"""``causalsplat serve`` as a user runs it: prints its URL, answers, stops on SIGTERM."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+
+import pytest
+
+from tests.causalsplat.serve._client import request
+from tests.conftest import COMMAND_TIMEOUT_S, REPO_ROOT
+
+
+def _serve(*args: str) -> subprocess.Popen[str]:
+    return subprocess.Popen(
+        [sys.executable, "-m", "causalsplat", "serve", *args],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=REPO_ROOT,
+        env={**os.environ},
+    )  # fmt: skip
+
+
+@pytest.mark.parametrize("how", [signal.SIGTERM, signal.SIGINT])
+def test_serve_prints_its_url_answers_and_stops_on_a_signal(store_url: str, how: int) -> None:
+    proc = _serve("--port", "0", "--quiet", "--db", store_url)
+    try:
+        assert proc.stdout is not None
+        url = proc.stdout.readline().strip()
+        assert url.startswith("http://127.0.0.1:") and url.endswith("/"), url
+        scenes = request(f"{url}api/scenes").json()["scenes"]
+        assert "demo-kitchen" in {s["scene_id"] for s in scenes}
+        proc.send_signal(how)
+        _out, err = proc.communicate(timeout=COMMAND_TIMEOUT_S)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    assert proc.returncode == 0, err
+    assert err.strip().splitlines()[-1] == "stopped"
+
+
+@pytest.mark.parametrize("host", ["0.0.0.0", "192.0.2.1"])
+def test_serve_refuses_an_address_that_is_not_loopback(store_url: str, host: str) -> None:
+    proc = _serve("--host", host, "--port", "0", "--db", store_url)
+    out, err = proc.communicate(timeout=COMMAND_TIMEOUT_S)
+    assert proc.returncode != 0 and out == ""
+    [line] = err.strip().splitlines()
+    assert line.startswith("causalsplat: error: refusing to listen on") and "--allow-remote" in line
+
+
+def test_serve_on_a_missing_store_is_one_line_and_creates_nothing(tmp_path) -> None:
+    proc = _serve("--port", "0", "--db", f"sqlite:///{tmp_path / 'none.db'}")
+    _out, err = proc.communicate(timeout=COMMAND_TIMEOUT_S)
+    assert proc.returncode != 0 and "no store at" in err and len(err.strip().splitlines()) == 1
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_serve_has_help() -> None:
+    proc = subprocess.run([sys.executable, "-m", "causalsplat", "serve", "--help"],
+                          capture_output=True, text=True, cwd=REPO_ROOT, check=True,
+                          timeout=COMMAND_TIMEOUT_S)  # fmt: skip
+    assert "--allow-remote" in proc.stdout and "/sparql" in proc.stdout
