@@ -27,7 +27,7 @@ from causalsplat.field.spill import (
     ViewSpill,
 )
 from causalsplat.field.types import FeatureField, MaskEvidence
-from causalsplat.field.uplift import supervision_weight, uplift_codes
+from causalsplat.field.uplift import UpliftAccumulator
 from causalsplat.field.weights import ViewMasks, mask_features, normalize_rows, view_masks
 from causalsplat.io.types import Camera, GaussianScene
 from causalsplat.masks import MaskSet
@@ -54,12 +54,21 @@ class LiftedViews:
             index ``np.flatnonzero(active)``): a tuple, or a sequence that reads a view
             from disk or rebuilds it when indexed (:mod:`causalsplat.field.spill`).
         masks: per view, its usable masks (:class:`ViewMasks`), held the same way.
+        uplift: (n_active, C) float64 sum of the uplifted mask codes (``init="uplift"``),
+            before normalisation, else ``None``.
+        supervision: (n_active,) float64 blending weight of each Gaussian inside usable
+            masks, all views.
+
+    The last two are summed while the views are rasterized, so no pass reads the views
+    again for them.
     """
 
     n_gaussians: int
     active: np.ndarray
     contributors: Sequence[Contributors]
     masks: Sequence[ViewMasks]
+    uplift: np.ndarray | None = None
+    supervision: np.ndarray | None = None
 
     @property
     def spilled_bytes(self) -> int:
@@ -110,6 +119,11 @@ def prepare_views(
         storage, int(budget * _WEIGHTS_SHARE)
     )
     mask_budget = unlimited if storage in ("memory", "recompute") else budget - weight_budget
+    acc = UpliftAccumulator(
+        int(active.sum()),
+        config.feature_dim if config.init == "uplift" else None,
+        np.random.default_rng([config.seed, 2]),  # the codes' generator
+    )
     contribs = ViewSpill(ContributorsCodec(), weight_budget, spill_dir)
     vms = ViewSpill(ViewMasksCodec(), mask_budget, spill_dir)
     for cam, ms in zip(cameras, masksets, strict=True):
@@ -121,10 +135,12 @@ def prepare_views(
     for i, (cam, ms) in enumerate(zip(cameras, masksets, strict=True)):
         contrib = build_contributors(sub, cam, config=raster, cache=False)
         valid = contrib.alpha() >= config.min_pixel_alpha if config.min_pixel_alpha > 0 else None
+        vm = view_masks(ms, i, config, rng, valid=valid)
+        acc.add(contrib, vm)
         if storage != "recompute":
             contribs.append(contrib)
-        vms.append(view_masks(ms, i, config, rng, valid=valid))
-        del contrib, valid
+        vms.append(vm)
+        del contrib, valid, vm
         if progress is not None:
             progress(i + 1)
     weights: Sequence[Contributors] = contribs
@@ -133,7 +149,7 @@ def prepare_views(
     elif contribs.n_spilled == 0:
         weights = tuple(contribs)
     masks: Sequence[ViewMasks] = tuple(vms) if vms.n_spilled == 0 else vms
-    return LiftedViews(scene.n, active, weights, masks)
+    return LiftedViews(scene.n, active, weights, masks, acc.codes, acc.supervision)
 
 
 def lift_features(
@@ -147,13 +163,21 @@ def lift_features(
 
     ``threads``: torch threads of the training (``None``: torch's setting), restored after.
     """
-    rng = np.random.default_rng([config.seed, 2])
     n_active = int(views.active.sum())
+    if views.supervision is None or (config.init == "uplift" and views.uplift is None):
+        raise InputFormatError("lift_features: the views were prepared without the sums it needs")
     if config.init == "uplift":
-        init = uplift_codes(views.contributors, views.masks, config.feature_dim, rng)
+        assert views.uplift is not None
+        if views.uplift.shape[1] != config.feature_dim:
+            raise InputFormatError(
+                f"lift_features: views prepared for feature_dim {views.uplift.shape[1]}, "
+                f"config has {config.feature_dim}"
+            )
+        init = normalize_rows(views.uplift)
     else:
+        rng = np.random.default_rng([config.seed, 2])
         init = normalize_rows(rng.standard_normal((n_active, config.feature_dim)))
-    supervised = supervision_weight(views.contributors, views.masks) > 0
+    supervised = views.supervision > 0
     losses: tuple[float, ...] = ()
     feats = init
     if config.iterations > 0 and n_active > 0:
