@@ -28,6 +28,28 @@ from causalsplat.bench import BenchReport
 
 NAME = "scale"
 STAGES = ("load", "rasterize", "field", "instances", "graph")
+SCANNET = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "scannet_scene0000_00"
+
+
+def _scannet(work: Path, views: int, width: int, height: int, copies: int) -> Path | None:
+    """scene0000_00 prepared at ``views`` x ``width`` x ``height`` (the real posed frames
+    among them), each Gaussian copied ``copies`` times with jitter (``None`` without data)."""
+    if not SCANNET.is_dir():
+        return None
+    folder = work / f"scannet-v{views}-{width}x{height}"
+    if not folder.exists():
+        argv = [sys.executable, "-m", "causalsplat", "prepare-scannet", str(SCANNET), "-o",
+                str(folder), "--width", str(width), "--height", str(height),
+                "--walk-views", str(max(1, views - 3))]  # fmt: skip
+        subprocess.run(argv, capture_output=True, text=True, check=True)
+    if copies == 1:
+        return folder
+    from causalsplat.bench._densify import densify_folder
+
+    dense = work / f"{folder.name}-x{copies}"
+    if not dense.exists():
+        densify_folder(folder, dense, copies, jitter=0.5)
+    return dense
 
 
 def _scene(work: Path, gaussians: int, views: int, width: int, height: int) -> Path:
@@ -126,11 +148,58 @@ def _growth(rows: list[dict[str, Any]], key: str, base_mib: float) -> dict[str, 
     return out
 
 
+def _ratio_lines(rows: list[dict[str, Any]]) -> list[str]:
+    """One line per row after the first: its time and peak against the first row's."""
+    if len(rows) < 2 or "error" in rows[0]:
+        return []
+    default, out = rows[0], [""]
+    for r in rows[1:]:
+        if "error" in r:
+            continue
+        err = "-" if r["iou"] is None or default["iou"] is None else (
+            f"{1 - r['iou']:.3f} vs {1 - default['iou']:.3f}"
+        )  # fmt: skip
+        out.append(
+            f"- {r['label']}: {r['total_s'] / default['total_s']:.2f}x the time of "
+            f"{default['label']}, peak {r['peak_rss_mib']:.0f} vs "
+            f"{default['peak_rss_mib']:.0f} MiB, error (1 - mean best IoU) {err}."
+        )
+    return out
+
+
 def _interpreter_mib() -> float:
     code = "import causalsplat.build, torch; from causalsplat.build.pipeline import _peak_rss_mib;"
     code += " print(_peak_rss_mib())"
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     return float(proc.stdout.strip())
+
+
+def _scannet_rows(work: Path, quick: bool) -> list[dict[str, Any]]:
+    """scene0000_00 as the build benchmark prepares it (63 views, 320x240): the default
+    build against the path before out-of-core views and the compiled rasterizer (numpy
+    rasterizer, every view in memory), in the same run; with ``full``, densified x18 at 200
+    views of 1000x750 too."""
+    rows: list[dict[str, Any]] = []
+    folder = None if quick else _scannet(work, 63, 320, 240, 1)
+    if folder is None:
+        return rows
+    size = {"gaussians": 81_369, "views": 63, "width": 320, "height": 240,
+            "view_pixels": 63 * 320 * 240}  # fmt: skip
+    numpy_config = work / "numpy-raster.json"
+    numpy_config.write_text(json.dumps({"raster": {"backend": "numpy"}}))
+    rows.append(_row("scene0000_00, default", size, _build(folder, work)))
+    before = ("--views", "memory", "--config", str(numpy_config))
+    rows.append(_row("scene0000_00, numpy rasterizer, all views in memory", size,
+                     _build(folder, work, *before)))  # fmt: skip
+    if os.environ.get("CAUSALSPLAT_BENCH_SCALE") == "full":
+        dense = _scannet(work, 200, 1000, 750, 18)
+        assert dense is not None
+        size = {"gaussians": 81_369 * 18, "views": 200, "width": 1000, "height": 750,
+                "view_pixels": 200 * 1000 * 750}  # fmt: skip
+        rows.append(_row("scene0000_00 x18, 200 views, 1000x750", size, _build(dense, work)))
+        rows.append(_row("the same at --image-scale 0.5", size,
+                         _build(dense, work, "--image-scale", "0.5")))  # fmt: skip
+    return rows
 
 
 def run(*, quick: bool = False) -> BenchReport:
@@ -145,6 +214,7 @@ def run(*, quick: bool = False) -> BenchReport:
         for g, v, w, h in pixel_ladder:
             size = {"gaussians": g, "views": v, "width": w, "height": h, "view_pixels": v * w * h}
             p_rows.append(_row("default", size, _build(_scene(work, g, v, w, h), work)))
+        scannet_rows = _scannet_rows(work, quick)
         g, v, w, h = pixel_ladder[-1]
         folder = _scene(work, g, v, w, h)
         size = {"gaussians": g, "views": v, "width": w, "height": h, "view_pixels": v * w * h}
@@ -182,25 +252,18 @@ def run(*, quick: bool = False) -> BenchReport:
         "|---|---|---|",
         *(f"| {k} | {fmt(g_growth[k])} | {fmt(p_growth[k])} |" for k in g_growth),
         "",
+        "### ScanNet scene0000_00 (same run)",
+        "",
+        *(_table(scannet_rows, base_mib) if scannet_rows else ["(skipped: no data)"]),
+        *_ratio_lines(scannet_rows),
+        "",
         "### Knobs at the largest views x pixels rung (same run; ratios to the default)",
         "",
         *_table(knobs, base_mib),
     ]
-    default = knobs[0]
-    if "error" not in default:
-        md.append("")
-        for r in knobs[1:]:
-            if "error" in r:
-                continue
-            err = "-" if r["iou"] is None or default["iou"] is None else (
-                f"{1 - r['iou']:.3f} vs {1 - default['iou']:.3f}"
-            )  # fmt: skip
-            md.append(
-                f"- {r['label']}: {r['total_s'] / default['total_s']:.2f}x the default's time, "
-                f"peak {r['peak_rss_mib']:.0f} vs {default['peak_rss_mib']:.0f} MiB, "
-                f"error {err}."
-            )
-    data = {"gaussians": g_rows, "pixels": p_rows, "knobs": knobs, "base_mib": base_mib,
+    md += _ratio_lines(knobs)
+    data = {"scannet": scannet_rows, "gaussians": g_rows, "pixels": p_rows, "knobs": knobs,
+            "base_mib": base_mib,
             "growth": {"gaussians": g_growth, "view_pixels": p_growth}}  # fmt: skip
     return BenchReport(NAME, "Scale: build time and memory against scene size", "\n".join(md),
                        data)  # fmt: skip

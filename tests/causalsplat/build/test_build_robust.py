@@ -10,13 +10,13 @@ import pytest
 from click.testing import CliRunner
 
 from causalsplat import open_store
+from causalsplat.bench._densify import densify_folder
 from causalsplat.build import BuildConfig, BuildError, StageError, build_scene, pipeline
 from causalsplat.build.errors import MAX_REASON, describe_error
 from causalsplat.cli import cli
 from causalsplat.errors import InputFormatError
 from causalsplat.field import FieldConfig
 from causalsplat.io import read_gaussian_ply
-from tests.causalsplat._densify import densify_folder
 
 #: The cheapest build that still gives entities: few views, few training steps.
 QUICK = BuildConfig(field=FieldConfig(iterations=10), max_views=6)

@@ -8,11 +8,11 @@ import pytest
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
+from causalsplat.bench._densify import densify_centres
 from causalsplat.instances.propagate import harmonic_labels, surface_graph
 from causalsplat.synth._gaussians import sample_gaussians
 from causalsplat.synth.config import SynthConfig
 from causalsplat.synth.generate import generate_layout, stream
-from tests.causalsplat._densify import densify_centres
 
 
 def _graph(n: int, edges: list[tuple[int, int, float]]) -> sp.csr_matrix:

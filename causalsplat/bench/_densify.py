@@ -1,4 +1,4 @@
-"""Densified scenes for tests: every Gaussian copied several times with a small jitter.
+"""Densified scenes (tests and the scale benchmark): every Gaussian copied with a small jitter.
 
 Real 3DGS scenes hold many overlapping near-duplicate Gaussians (densification clones and
 splits them). Copying each Gaussian of a synthetic scene ``copies`` times reproduces that:
