@@ -23,6 +23,10 @@ from causalsplat.render._backend import numba_available
 from causalsplat.render.types import Contributors
 
 
+#: Views with fewer weights scatter their backward product on the calling thread.
+_THREADED_NNZ = 1 << 22
+
+
 def _csr_tensor(c: Contributors, dtype: torch.dtype) -> torch.Tensor:
     # int32 indices take the faster CSR kernels (about 2x here) when they fit.
     itype = np.int32 if max(c.nnz, c.n_pixels, c.n_gaussians) < 2**31 - 1 else np.int64
@@ -43,10 +47,12 @@ def _transposed(c: Contributors, grad: torch.Tensor) -> torch.Tensor:
     if numba_available():
         from causalsplat.render._kernel_transpose import transposed_product
 
-        # As many threads as torch's own products use (``torch.set_num_threads``).
-        out = transposed_product(
-            c.indptr, c.indices, c.weights, g, c.n_gaussians, torch.get_num_threads()
-        )
+        # As many threads as torch's own products use (``torch.set_num_threads``), but one
+        # below _THREADED_NNZ weights: torch's OpenMP workers spin for a while after each
+        # of its parallel loops, and Python threads started beside them wait for cores
+        # (on the tiny synthetic scene two threads cost 1.7x the CPU time of one).
+        threads = torch.get_num_threads() if c.nnz >= _THREADED_NNZ else 1
+        out = transposed_product(c.indptr, c.indices, c.weights, g, c.n_gaussians, threads)
     else:
         out = np.asarray(c.matrix(g.dtype).T @ g)
     return torch.from_numpy(out)
