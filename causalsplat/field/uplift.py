@@ -19,6 +19,19 @@ from causalsplat.field.weights import ViewMasks, normalize_rows
 from causalsplat.render.types import Contributors
 
 
+def _transposed(contrib: Contributors, values: np.ndarray) -> np.ndarray:
+    """``W^T @ values`` in float64 without a float64 copy of the weights: the compiled
+    scatter on one thread (independent of the thread count), else scipy."""
+    from causalsplat.render._backend import numba_available
+
+    if numba_available():
+        from causalsplat.render._kernel_transpose import transposed_product
+
+        c = contrib
+        return transposed_product(c.indptr, c.indices, c.weights, values, c.n_gaussians, 1)
+    return np.asarray(contrib.matrix(np.float64).T @ values)
+
+
 class UpliftAccumulator:
     """The uplift and the supervision weight summed one view at a time, so that a build
     reads each view's weights once for both (while it rasterizes them)."""
@@ -32,16 +45,18 @@ class UpliftAccumulator:
         """Add one view (views in order: the codes are drawn from the generator)."""
         if vm.pixels.size == 0 and vm.n_masks == 0:
             return
-        matrix_t = contrib.matrix(np.float64).T
-        if self.codes is not None and vm.n_masks > 0:
-            dim = self.codes.shape[1]
+        # One pass over the view's weights for both sums: (H*W, dim + 1) values per pixel.
+        with_codes = self.codes is not None and vm.n_masks > 0
+        dim = self.codes.shape[1] if with_codes and self.codes is not None else 0
+        values = np.zeros((vm.n_pixels, dim + 1), dtype=np.float64)
+        if with_codes:
             codes = normalize_rows(self._rng.standard_normal((vm.n_masks, dim)))
-            pixel_codes = vm.weights.T.astype(np.float64) @ codes  # (H*W, dim)
-            self.codes += matrix_t @ pixel_codes
-        if vm.pixels.size > 0:
-            covered = np.zeros(vm.n_pixels, dtype=np.float64)
-            covered[vm.pixels] = 1.0
-            self.supervision += matrix_t @ covered
+            values[:, :dim] = vm.weights.T.astype(np.float64) @ codes
+        values[vm.pixels, dim] = 1.0
+        summed = _transposed(contrib, values)
+        if with_codes and self.codes is not None:
+            self.codes += summed[:, :dim]
+        self.supervision += summed[:, dim]
 
 
 def uplift_codes(

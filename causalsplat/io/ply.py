@@ -115,8 +115,11 @@ def _parse(path: Path) -> Any:
     except FileNotFoundError as exc:
         raise PlyFormatError(f"{path}: no such file") from exc
     try:
+        # Memory-mapped (copy on write): plyfile then reads a binary element with one
+        # structured view of the file, where mmap=False parses it vertex by vertex
+        # (25 us a Gaussian). Every column is copied out before the map is dropped.
         with open(path, "rb") as fh:
-            return plyfile.PlyData.read(fh, mmap=False)
+            return plyfile.PlyData.read(fh, mmap="c")
     except FileNotFoundError as exc:
         raise PlyFormatError(f"{path}: no such file") from exc
     except MemoryError as exc:

@@ -22,7 +22,6 @@ import torch
 from causalsplat.render._backend import numba_available
 from causalsplat.render.types import Contributors
 
-
 #: Views with fewer weights scatter their backward product on the calling thread.
 _THREADED_NNZ = 1 << 22
 

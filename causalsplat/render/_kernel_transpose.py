@@ -44,13 +44,17 @@ def transposed_product(
     n_columns: int,
     threads: int,
 ) -> np.ndarray:
-    """(n_columns, C) ``W^T @ grad`` for the CSR ``W`` (rows x n_columns), in grad's dtype."""
+    """(n_columns, C) ``W^T @ grad`` for the CSR ``W`` (rows x n_columns), in grad's dtype.
+
+    On one thread the result does not depend on anything but the inputs; it equals scipy's
+    ``W.T @ grad`` (weights cast to grad's dtype) up to the rounding of the additions.
+    """
     grad = np.ascontiguousarray(grad)
     rows = indptr.shape[0] - 1
     threads = max(1, min(threads, rows))
     bounds = np.linspace(0, rows, threads + 1).astype(np.int64)
     outs = [np.zeros((n_columns, grad.shape[1]), dtype=grad.dtype) for _ in range(threads)]
-    data = weights.astype(grad.dtype, copy=False)
+    data = weights  # float32 weights times float64 values are float64 products: no copy
 
     def task(i: int) -> None:
         _scatter_rows(indptr, indices, data, grad, outs[i], int(bounds[i]), int(bounds[i + 1]))

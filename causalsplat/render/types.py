@@ -70,8 +70,12 @@ class Contributors:
 
     def alpha(self) -> np.ndarray:
         """(H, W) float64 accumulated opacity: the sum of the weights of each pixel."""
-        sums = self.matrix(np.float64).sum(axis=1)
-        out = np.asarray(sums).ravel()
+        # Summed in float64 straight from the float32 weights (no float64 copy of them).
+        out = np.zeros(self.n_pixels, dtype=np.float64)
+        starts = np.asarray(self.indptr[:-1])
+        rows = np.flatnonzero(np.diff(self.indptr) > 0)
+        if rows.size:
+            out[rows] = np.add.reduceat(self.weights, starts[rows], dtype=np.float64)
         return out.reshape(self.height, self.width)
 
     def composite(self, values: np.ndarray) -> np.ndarray:
