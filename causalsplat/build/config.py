@@ -80,7 +80,8 @@ class BuildConfig:
             disk), ``memory``, ``disk`` or ``recompute`` (rebuilt at each use; see
             :func:`causalsplat.field.prepare_views`). Speed and memory only.
         memory_budget_mib: MiB the views' data may keep in memory under ``views="auto"``
-            (``None``: half the machine's memory). The per-Gaussian arrays come on top of it.
+            (``None``: a quarter of the machine's memory). The per-Gaussian arrays and one
+            view in use come on top of it.
             Speed and memory only.
     """
 
@@ -159,10 +160,11 @@ class BuildConfig:
         return out
 
     def memory_budget_bytes(self) -> int:
-        """The views' memory budget in bytes (``memory_budget_mib``, else half the RAM)."""
+        """The views' memory budget in bytes (``memory_budget_mib``, else a quarter of the
+        RAM)."""
         if self.memory_budget_mib is not None:
             return self.memory_budget_mib * 2**20
-        return _physical_memory() // 2
+        return _physical_memory() // 4
 
     @classmethod
     def from_json(cls, document: Any, *, source: str = "<config>") -> BuildConfig:

@@ -95,6 +95,7 @@ class BuildResult:
     n_views: int
     warnings: tuple[str, ...] = ()
     coverage: Coverage | None = None
+    views_storage: dict[str, Any] | None = None
 
     def to_json(self) -> dict[str, Any]:
         g = self.graph
@@ -122,6 +123,7 @@ class BuildResult:
             "quality": None if self.quality is None else self.quality.to_json(),
             "warnings": list(self.warnings),
             "coverage": None if self.coverage is None else self.coverage.to_json(),
+            "views_storage": self.views_storage,
         }
 
 
@@ -214,7 +216,7 @@ def build_scene(
     field_key = cache_key(
         CACHE_VERSION, hashes, result["raster"], result["field"], result["image_scale"]
     )
-    field, evidence = _field_stage(folder, config, cache, field_key, stages, progress)
+    field, evidence, storage = _field_stage(folder, config, cache, field_key, stages, progress)
     if evidence.n == 0:
         raise BuildError(
             f"{folder.root}: no usable mask: none of the {len(folder.cameras)} views draws a "
@@ -267,6 +269,7 @@ def build_scene(
         n_views=len(folder.cameras),
         warnings=tuple(warnings),
         coverage=coverage,
+        views_storage=storage,
     )
 
 
@@ -297,11 +300,11 @@ def _field_stage(
     key: str,
     stages: _Stages,
     progress: bool,
-) -> tuple[FeatureField, MaskEvidence]:
+) -> tuple[FeatureField, MaskEvidence, dict[str, Any] | None]:
     cached = cache.get("field", key)
     if cached is not None:
         with stages.stage("field", cached=True):
-            return _decode_field(cached, config), _decode_evidence(cached)
+            return _decode_field(cached, config), _decode_evidence(cached), None
     with stages.stage("rasterize"), _bar(len(folder.cameras), "rasterize", progress) as tick:
         views = prepare_views(
             folder.gaussians, folder.cameras, folder.masks, config.field,
@@ -316,9 +319,10 @@ def _field_stage(
                 )
             evidence = mask_evidence(field, views)
     finally:
+        storage = {"storage": views.storage, "spilled_mib": round(views.spilled_bytes / 2**20, 1)}
         views.close()
     cache.put("field", key, {**_encode_field(field), **_encode_evidence(evidence)})
-    return field, evidence
+    return field, evidence, storage
 
 
 @contextmanager

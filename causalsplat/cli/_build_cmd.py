@@ -84,7 +84,7 @@ def parse_mib(text: str) -> int:
 @click.option(
     "--memory-budget",
     metavar="SIZE",
-    help="Memory the views' data may keep, e.g. 12G or 800M (default: half the RAM); "
+    help="Memory the views' data may keep, e.g. 12G or 800M (default: a quarter of the RAM); "
     "views past it are memory-mapped from a temporary folder.",
 )
 @click.option(

@@ -105,3 +105,21 @@ def test_a_spill_keeps_views_resident_up_to_its_budget(tmp_path: Path) -> None:
 def test_storage_options_are_checked(key: str, value: object, match: str) -> None:
     with pytest.raises(BuildConfigError, match=match):
         BuildConfig.from_json({key: value})
+
+
+def test_auto_rebuilds_views_rather_than_fill_the_disk(tmp_path: Path) -> None:
+    import shutil
+
+    from causalsplat.field.lift import _auto_storage
+
+    free = shutil.disk_usage(tmp_path).free
+    assert _auto_storage(1000, 10, 10_000, tmp_path) == "auto"  # fits the budget
+    assert _auto_storage(1000, 10, 0, tmp_path) == "auto"  # 10 kB to spill
+    assert _auto_storage(free // 10, 10, 0, tmp_path / "absent" / "dir") == "recompute"
+    assert _auto_storage(free // 10, 10, free, tmp_path) == "auto"  # resident after all
+
+
+def test_the_build_report_says_where_the_views_stayed(tiny_folder: Path) -> None:
+    config = BuildConfig(views="disk", **_FAST)
+    doc = build_scene(tiny_folder, config=config, cache_dir=False).to_json()
+    assert doc["views_storage"]["storage"] == "disk" and doc["views_storage"]["spilled_mib"] > 0
