@@ -319,7 +319,11 @@ def _field_stage(
                 )
             evidence = mask_evidence(field, views)
     finally:
-        storage = {"storage": views.storage, "spilled_mib": round(views.spilled_bytes / 2**20, 1)}
+        storage = {
+            "storage": config.views,
+            **(views.counts or {}),
+            "spilled_mib": round(views.spilled_bytes / 2**20, 1),
+        }
         views.close()
     cache.put("field", key, {**_encode_field(field), **_encode_evidence(evidence)})
     return field, evidence, storage

@@ -58,7 +58,8 @@ class LiftedViews:
             before normalisation, else ``None``.
         supervision: (n_active,) float64 blending weight of each Gaussian inside usable
             masks, all views.
-        storage: where the weights stayed (``auto``: memory up to the budget, then disk).
+        counts: how many views' weights stayed resident, went to disk, or are rebuilt
+            at each use.
 
     The last two are summed while the views are rasterized, so no pass reads the views
     again for them.
@@ -70,7 +71,7 @@ class LiftedViews:
     masks: Sequence[ViewMasks]
     uplift: np.ndarray | None = None
     supervision: np.ndarray | None = None
-    storage: ViewStorage = "memory"
+    counts: dict[str, int] | None = None
 
     @property
     def spilled_bytes(self) -> int:
@@ -103,9 +104,8 @@ def prepare_views(
     ``storage`` says where the views' blending weights stay between the passes that read
     them: ``memory`` (all resident), ``disk`` (written once and memory-mapped at each use),
     ``recompute`` (rebuilt by the rasterizer at each use, nothing kept) or ``auto``
-    (resident while they fit ``budget_bytes``, the rest on disk; rebuilt at each use
-    instead when the first view's size times the number of views past the budget would
-    take more than half the free disk). The weighted masks stay
+    (resident while they fit ``budget_bytes``, the next ones on disk up to half its free
+    space, the rest rebuilt at each use). The weighted masks stay
     resident, or, under ``auto`` and ``disk``, go to disk past their share of the budget.
     Disk files go to a private folder under ``spill_dir`` (default: the system's temporary
     directory), removed by :meth:`LiftedViews.close` or when the views are collected.
@@ -128,7 +128,14 @@ def prepare_views(
         config.feature_dim if config.init == "uplift" else None,
         np.random.default_rng([config.seed, 2]),  # the codes' generator
     )
-    contribs = ViewSpill(ContributorsCodec(), weight_budget, spill_dir)
+
+    def rebuild(i: int) -> Contributors:
+        return build_contributors(sub, cameras[i], config=raster, cache=False)
+
+    disk = _disk_allowance(spill_dir) if storage == "auto" else None
+    contribs = ViewSpill(
+        ContributorsCodec(), weight_budget, spill_dir, disk_bytes=disk, rebuild=rebuild
+    )
     vms = ViewSpill(ViewMasksCodec(), mask_budget, spill_dir)
     for cam, ms in zip(cameras, masksets, strict=True):
         if (ms.width, ms.height) != (cam.width, cam.height):
@@ -141,8 +148,6 @@ def prepare_views(
         valid = contrib.alpha() >= config.min_pixel_alpha if config.min_pixel_alpha > 0 else None
         vm = view_masks(ms, i, config, rng, valid=valid)
         acc.add(contrib, vm)
-        if storage == "auto" and i == 0:
-            storage = _auto_storage(contrib.nbytes, len(cameras), weight_budget, spill_dir)
         if storage != "recompute":
             contribs.append(contrib)
         vms.append(vm)
@@ -152,28 +157,29 @@ def prepare_views(
     weights: Sequence[Contributors] = contribs
     if storage == "recompute":
         weights = RecomputedWeights(sub, cameras, raster)
-    elif contribs.n_spilled == 0:
+    elif contribs.n_spilled == 0 and contribs.n_rebuilt == 0:
         weights = tuple(contribs)
     masks: Sequence[ViewMasks] = tuple(vms) if vms.n_spilled == 0 else vms
-    return LiftedViews(scene.n, active, weights, masks, acc.codes, acc.supervision, storage=storage)
+    n = len(cameras)
+    counts = {
+        "resident": n if storage == "memory" else n - contribs.n_spilled - contribs.n_rebuilt,
+        "on_disk": contribs.n_spilled,
+        "rebuilt": n if storage == "recompute" else contribs.n_rebuilt,
+    }
+    if storage == "recompute":
+        counts["resident"] = 0
+    return LiftedViews(scene.n, active, weights, masks, acc.codes, acc.supervision, counts)
 
 
-def _auto_storage(
-    view_bytes: int, n_views: int, budget: int, spill_dir: str | Path | None
-) -> ViewStorage:
-    """``auto`` settled after the first view: ``recompute`` when spilling the views past
-    ``budget`` would take more than half the free space of the spill folder, else ``auto``."""
+def _disk_allowance(spill_dir: str | Path | None) -> int:
+    """Bytes ``auto`` may write to the spill folder: half its disk's free space now."""
     import shutil
     import tempfile
 
-    spill = max(0, view_bytes * n_views - budget)
-    if spill == 0:
-        return "auto"
     where = Path(spill_dir) if spill_dir is not None else Path(tempfile.gettempdir())
     while not where.exists() and where != where.parent:
         where = where.parent
-    free = shutil.disk_usage(where).free
-    return "recompute" if spill > free // 2 else "auto"
+    return shutil.disk_usage(where).free // 2
 
 
 def lift_features(

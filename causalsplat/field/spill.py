@@ -29,7 +29,7 @@ from __future__ import annotations
 import shutil
 import tempfile
 import weakref
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Any, Generic, Protocol, TypeVar, overload
 
@@ -100,16 +100,29 @@ def _nbytes(arrays: dict[str, np.ndarray]) -> int:
 class ViewSpill(Sequence[T], Generic[T]):
     """An append-only sequence of per-view values, resident up to ``budget_bytes`` and
     memory-mapped from ``folder`` (default: a new private folder under the system's
-    temporary directory, removed by :meth:`close` or when the spill is collected) beyond.
+    temporary directory, removed by :meth:`close` or when the spill is collected) beyond;
+    with ``disk_bytes``, views that would take the files past it are not kept at all and
+    ``rebuild(index)`` makes them again at each use.
 
     Values read back from disk are read-only views of the mapped files.
     """
 
     def __init__(
-        self, codec: Codec[T], budget_bytes: int, folder: str | Path | None = None
+        self,
+        codec: Codec[T],
+        budget_bytes: int,
+        folder: str | Path | None = None,
+        *,
+        disk_bytes: int | None = None,
+        rebuild: Callable[[int], T] | None = None,
     ) -> None:
+        if disk_bytes is not None and rebuild is None:
+            raise ValueError("a ViewSpill with a disk limit needs rebuild for the views past it")
         self._codec = codec
         self._budget = int(budget_bytes)
+        self._disk = disk_bytes
+        self._rebuild = rebuild
+        self._absent: set[int] = set()
         self._parent = None if folder is None else Path(folder)
         self._folder: Path | None = None
         self._resident: dict[int, T] = {}
@@ -127,6 +140,8 @@ class ViewSpill(Sequence[T], Generic[T]):
         if self.resident_bytes + size <= self._budget:
             self._resident[index] = value
             self.resident_bytes += size
+        elif self._disk is not None and self.spilled_bytes + size > self._disk:
+            self._absent.add(index)  # rebuilt at each use
         else:
             folder = self._spill_folder()
             for name, array in arrays.items():
@@ -146,7 +161,13 @@ class ViewSpill(Sequence[T], Generic[T]):
 
     @property
     def n_spilled(self) -> int:
-        return len(self._meta) - len(self._resident)
+        """Views on disk."""
+        return len(self._meta) - len(self._resident) - len(self._absent)
+
+    @property
+    def n_rebuilt(self) -> int:
+        """Views past the disk limit, rebuilt at each use."""
+        return len(self._absent)
 
     def __len__(self) -> int:
         return len(self._meta)
@@ -167,6 +188,9 @@ class ViewSpill(Sequence[T], Generic[T]):
         hit = self._resident.get(index)
         if hit is not None:
             return hit
+        if index in self._absent:
+            assert self._rebuild is not None
+            return self._rebuild(index)
         assert self._folder is not None
         arrays = {
             name: np.load(self._folder / f"{index}.{name}.npy", mmap_mode="r")

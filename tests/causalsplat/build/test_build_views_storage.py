@@ -107,19 +107,26 @@ def test_storage_options_are_checked(key: str, value: object, match: str) -> Non
         BuildConfig.from_json({key: value})
 
 
-def test_auto_rebuilds_views_rather_than_fill_the_disk(tmp_path: Path) -> None:
-    import shutil
+def test_views_past_the_disk_allowance_are_rebuilt_at_each_use(tmp_path: Path) -> None:
+    built: list[int] = []
 
-    from causalsplat.field.lift import _auto_storage
+    def rebuild(i: int) -> np.ndarray:
+        built.append(i)
+        return np.full(4, i, dtype=np.float64)
 
-    free = shutil.disk_usage(tmp_path).free
-    assert _auto_storage(1000, 10, 10_000, tmp_path) == "auto"  # fits the budget
-    assert _auto_storage(1000, 10, 0, tmp_path) == "auto"  # 10 kB to spill
-    assert _auto_storage(free // 10, 10, 0, tmp_path / "absent" / "dir") == "recompute"
-    assert _auto_storage(free // 10, 10, free, tmp_path) == "auto"  # resident after all
+    spill = ViewSpill(ArrayCodec(), 32, tmp_path, disk_bytes=64, rebuild=rebuild)
+    for i in range(5):  # 32 bytes each: one resident, two on disk, two rebuilt
+        spill.append(np.full(4, i, dtype=np.float64))
+    assert (spill.resident_bytes, spill.spilled_bytes) == (32, 64)
+    assert (spill.n_spilled, spill.n_rebuilt) == (2, 2)
+    assert [int(x[0]) for x in spill] == [0, 1, 2, 3, 4] and built == [3, 4]
+    with pytest.raises(ValueError, match="needs rebuild"):
+        ViewSpill(ArrayCodec(), 0, disk_bytes=0)
 
 
 def test_the_build_report_says_where_the_views_stayed(tiny_folder: Path) -> None:
     config = BuildConfig(views="disk", **_FAST)
     doc = build_scene(tiny_folder, config=config, cache_dir=False).to_json()
-    assert doc["views_storage"]["storage"] == "disk" and doc["views_storage"]["spilled_mib"] > 0
+    report = doc["views_storage"]
+    assert report["storage"] == "disk" and report["spilled_mib"] > 0
+    assert (report["resident"], report["on_disk"], report["rebuilt"]) == (0, 12, 0)
