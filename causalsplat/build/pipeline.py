@@ -317,7 +317,8 @@ def _field_stage(
                 field = lift_features(
                     views, config.field, progress=tick, threads=config.raster.threads
                 )
-            evidence = mask_evidence(field, views)
+            with _bar(len(views.masks), "evidence", progress) as tick:
+                evidence = mask_evidence(field, views, progress=tick)
     finally:
         storage = {
             "storage": config.views,

@@ -223,17 +223,25 @@ def lift_features(
     return FeatureField(full, views.active.copy(), sup, losses, config)
 
 
-def mask_evidence(field: FeatureField, views: LiftedViews) -> MaskEvidence:
+def mask_evidence(
+    field: FeatureField,
+    views: LiftedViews,
+    *,
+    progress: Callable[[int], None] | None = None,
+) -> MaskEvidence:
     """What the instance stage needs from the views, for every usable mask of every view:
     its feature ``Norm(sum W F)`` from the final field and the blending weight each
-    Gaussian carries inside it (``sum_x W_m(x) w(x, g)``)."""
+    Gaussian carries inside it (``sum_x W_m(x) w(x, g)``). ``progress(k)`` after view k.
+    """
     active_idx = np.flatnonzero(views.active)
     active_feats = field.features[views.active].astype(np.float64)
     feats, blocks, view_of, index_of, pixel_weight = [], [], [], [], []
-    for contrib, vm in zip(views.contributors, views.masks, strict=True):
+    for i, vm in enumerate(views.masks):
+        if progress is not None:
+            progress(i + 1)
         if vm.n_masks == 0:
-            continue
-        matrix = contrib.matrix(np.float64)
+            continue  # before reading the weights, which may be rebuilt to be read
+        matrix = views.contributors[i].matrix(np.float64)
         feats.append(mask_features(matrix @ active_feats, vm))
         blocks.append(sp.csr_matrix(vm.weights.astype(np.float64) @ matrix))
         view_of.append(np.full(vm.n_masks, vm.view, dtype=np.int64))
