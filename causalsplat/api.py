@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING, Any, Literal
 from graph_store import (
     Entity,
     GraphStore,
+    SceneExistsError,
     SceneGraph,
     SceneNotFound,
     SceneSummary,
@@ -151,6 +152,15 @@ class Store:
 
         if isinstance(config, str | Path):
             config = BuildConfig.from_file(config)
+        if if_exists == "fail":  # refuse before the build, not after it
+            from causalsplat.build.pipeline import scene_id_of
+
+            sid = scene_id_of(path, scene_id)
+            if self.graph_store.has_scene(sid):
+                raise SceneExistsError(
+                    f"scene {sid!r} is already stored; pass if_exists='replace'"
+                    " (CLI: --if-exists replace) to overwrite it"
+                )
         result = build_scene(
             path, scene_id=scene_id, config=config, cache_dir=cache_dir, progress=progress
         )

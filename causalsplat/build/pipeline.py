@@ -395,7 +395,7 @@ def _graph(
         folder.cameras, folder.masks, evidence, assignment, {e.id for e in entities}
     )
     meta = SceneMeta(
-        scene_id=scene_id or _declared_scene_id(folder) or folder.root.name,
+        scene_id=scene_id_of(folder.root, scene_id),
         units=config.units,
         up_axis=config.up_axis,
         source="build",
@@ -417,12 +417,11 @@ def view_image(folder: SceneFolder, view: int) -> np.ndarray:
     return render_rgb(folder.gaussians, cam)
 
 
-def _declared_scene_id(folder: SceneFolder) -> str | None:
-    """The ``scene_id`` of the folder's ``queries.json`` or ``objects.json``, if any."""
+def _declared_in(paths: tuple[Path | None, ...]) -> str | None:
     import json
 
-    for path in (folder.queries_path, folder.objects_path):
-        if path is None:
+    for path in paths:
+        if path is None or not path.is_file():
             continue
         try:
             value = json.loads(path.read_text(encoding="utf-8")).get("scene_id")
@@ -431,6 +430,19 @@ def _declared_scene_id(folder: SceneFolder) -> str | None:
         if isinstance(value, str) and value:
             return value
     return None
+
+
+def scene_id_of(path: str | Path, scene_id: str | None = None) -> str:
+    """The id :func:`build_scene` stores the folder ``path`` under: ``scene_id``, else the
+    ``scene_id`` of its ``queries.json`` or ``objects.json``, else the folder's name. Reads
+    only those two files, so a store can refuse a build before it runs.
+
+    >>> scene_id_of("/data/scans/kitchen"), scene_id_of("/data/kitchen", "k1")
+    ('kitchen', 'k1')
+    """
+    root = Path(path).absolute()
+    declared = _declared_in((root / "queries.json", root / "objects.json"))
+    return scene_id or declared or root.name
 
 
 # -- cache encoding ----------------------------------------------------------------------

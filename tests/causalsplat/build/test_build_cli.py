@@ -67,7 +67,15 @@ def test_build_errors_are_one_line_and_store_nothing(tiny_folder: Path, tmp_path
     nothing.write_text(json.dumps({"field": {"iterations": 10},
                                    "instances": {"min_gaussians": 10**9}}))  # fmt: skip
     assert_one_line_error(run("build", str(tiny_folder), "--config", str(nothing), "--no-cache",
-                              db=db, check=False), "the build found no entities")  # fmt: skip
+                              "--no-progress", db=db, check=False),
+                          "the build found no entities")  # fmt: skip
+    # with progress (the default off a terminal): stage lines, then the one error line
+    proc = run("build", str(tiny_folder), "--config", str(nothing), "--no-cache", db=db,
+               check=False)  # fmt: skip
+    *before, last = proc.stderr.strip().splitlines()
+    assert proc.returncode == 1 and last.startswith("causalsplat: error: ")
+    assert "the build found no entities" in last and before
+    assert all(line.startswith("causalsplat: ") and "error" not in line for line in before)
     if (tmp_path / "e.db").exists():
         assert json.loads(run("scenes", "--json", db=db).stdout) == []
 

@@ -98,7 +98,7 @@ def test_cli_prints_a_stage_failure_as_one_line(
     config = tmp_path / "quick.json"
     config.write_text(json.dumps({"max_views": 6, "field": {"iterations": 10}}))
     db = tmp_path / "cli.db"
-    args = ["build", str(tiny_folder), "--config", str(config), "--no-cache",
+    args = ["build", str(tiny_folder), "--config", str(config), "--no-cache", "--no-progress",
             "--db", f"sqlite:///{db}"]  # fmt: skip
     result = CliRunner().invoke(cli, args)
     assert result.exit_code == 1, result.output
