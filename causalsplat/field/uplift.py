@@ -6,12 +6,12 @@ a Gaussian's feature the blending-weighted sum over all views and pixels it is d
 ``f_g = Norm(sum_v sum_x w_v(x, g) q_v(x))``, i.e. ``f = Norm(sum_v W_v^T (B_v^T R_v))``.
 Gaussians of one object fall into the masks of that object in every view that sees them,
 so they accumulate the same codes; Gaussians of different objects accumulate independent
-codes and are nearly orthogonal when C is large enough. numpy / scipy only.
+codes and are nearly orthogonal when C is large enough. The sums are taken one view at a
+time by :class:`UpliftAccumulator`, while the build rasterizes the views
+(:func:`causalsplat.field.prepare_views`). numpy / scipy only.
 """
 
 from __future__ import annotations
-
-from collections.abc import Sequence
 
 import numpy as np
 
@@ -57,28 +57,3 @@ class UpliftAccumulator:
         if with_codes and self.codes is not None:
             self.codes += summed[:, :dim]
         self.supervision += summed[:, dim]
-
-
-def uplift_codes(
-    contributors: Sequence[Contributors],
-    masks: Sequence[ViewMasks],
-    dim: int,
-    rng: np.random.Generator,
-) -> np.ndarray:
-    """(N, dim) float64 uplifted features (rows of unseen Gaussians are zero)."""
-    acc = UpliftAccumulator(contributors[0].n_gaussians if contributors else 0, dim, rng)
-    for contrib, vm in zip(contributors, masks, strict=True):
-        acc.add(contrib, vm)
-    assert acc.codes is not None
-    return normalize_rows(acc.codes)
-
-
-def supervision_weight(
-    contributors: Sequence[Contributors], masks: Sequence[ViewMasks]
-) -> np.ndarray:
-    """(N,) float64: each Gaussian's total blending weight inside usable masks, all views."""
-    rng = np.random.default_rng(0)  # unused: no codes
-    acc = UpliftAccumulator(contributors[0].n_gaussians if contributors else 0, None, rng)
-    for contrib, vm in zip(contributors, masks, strict=True):
-        acc.add(contrib, vm)
-    return acc.supervision
