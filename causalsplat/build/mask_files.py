@@ -13,16 +13,16 @@ already reads each file once per stage.
 from __future__ import annotations
 
 from collections import OrderedDict
-from collections.abc import Callable, Iterator, Sequence
-from typing import overload
+from collections.abc import Callable
 
+from causalsplat.field.spill import PerView
 from causalsplat.masks.types import MaskSet
 
 #: Default byte budget of the views kept in memory.
 DEFAULT_BUDGET = 1 << 30
 
 
-class MaskFiles(Sequence[MaskSet]):
+class MaskFiles(PerView[MaskSet]):
     """Lazily read mask sets (module docstring). ``read(i)`` reads and checks view ``i``."""
 
     def __init__(
@@ -40,19 +40,7 @@ class MaskFiles(Sequence[MaskSet]):
     def __len__(self) -> int:
         return self._count
 
-    @overload
-    def __getitem__(self, index: int) -> MaskSet: ...
-
-    @overload
-    def __getitem__(self, index: slice) -> Sequence[MaskSet]: ...
-
-    def __getitem__(self, index: int | slice) -> MaskSet | Sequence[MaskSet]:
-        if isinstance(index, slice):
-            return [self[i] for i in range(*index.indices(self._count))]
-        if index < 0:
-            index += self._count
-        if not 0 <= index < self._count:
-            raise IndexError(f"view {index} out of range ({self._count} views)")
+    def _view(self, index: int) -> MaskSet:
         hit = self._kept.get(index)
         if hit is not None:
             self._kept.move_to_end(index)
@@ -65,7 +53,3 @@ class MaskFiles(Sequence[MaskSet]):
             _, old = self._kept.popitem(last=False)
             self._bytes -= old.masks.nbytes
         return value
-
-    def __iter__(self) -> Iterator[MaskSet]:
-        for i in range(self._count):
-            yield self[i]

@@ -31,7 +31,7 @@ import tempfile
 import weakref
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
-from typing import Any, Generic, Protocol, TypeVar, overload
+from typing import Any, Protocol, TypeVar, overload
 
 import numpy as np
 import scipy.sparse as sp
@@ -97,7 +97,35 @@ def _nbytes(arrays: dict[str, np.ndarray]) -> int:
     return sum(int(a.nbytes) for a in arrays.values())
 
 
-class ViewSpill(Sequence[T], Generic[T]):
+class PerView(Sequence[T]):
+    """A read-only sequence of per-view values made when indexed: a subclass gives
+    ``__len__`` and ``_view(i)`` for ``0 <= i < len``; indexing (negative, slices, range
+    checks) and iteration are here."""
+
+    def _view(self, index: int) -> T:
+        raise NotImplementedError
+
+    @overload
+    def __getitem__(self, index: int) -> T: ...
+
+    @overload
+    def __getitem__(self, index: slice) -> Sequence[T]: ...
+
+    def __getitem__(self, index: int | slice) -> T | Sequence[T]:
+        if isinstance(index, slice):
+            return [self._view(i) for i in range(*index.indices(len(self)))]
+        n = len(self)
+        i = index + n if index < 0 else index
+        if not 0 <= i < n:
+            raise IndexError(f"view {index} out of range ({n} views)")
+        return self._view(i)
+
+    def __iter__(self) -> Iterator[T]:
+        for i in range(len(self)):
+            yield self._view(i)
+
+
+class ViewSpill(PerView[T]):
     """An append-only sequence of per-view values, resident up to ``budget_bytes`` and
     memory-mapped from ``folder`` (default: a new private folder under the system's
     temporary directory, removed by :meth:`close` or when the spill is collected) beyond;
@@ -172,19 +200,7 @@ class ViewSpill(Sequence[T], Generic[T]):
     def __len__(self) -> int:
         return len(self._meta)
 
-    @overload
-    def __getitem__(self, index: int) -> T: ...
-
-    @overload
-    def __getitem__(self, index: slice) -> Sequence[T]: ...
-
-    def __getitem__(self, index: int | slice) -> T | Sequence[T]:
-        if isinstance(index, slice):
-            return [self[i] for i in range(*index.indices(len(self)))]
-        if index < 0:
-            index += len(self)
-        if not 0 <= index < len(self):
-            raise IndexError(f"view {index} out of range ({len(self)} views)")
+    def _view(self, index: int) -> T:
         hit = self._resident.get(index)
         if hit is not None:
             return hit
@@ -198,17 +214,13 @@ class ViewSpill(Sequence[T], Generic[T]):
         }
         return self._codec.decode(arrays, self._meta[index])
 
-    def __iter__(self) -> Iterator[T]:
-        for i in range(len(self)):
-            yield self[i]
-
     def close(self) -> None:
         """Remove the spilled files now (the resident views stay readable)."""
         if self._finalizer is not None:
             self._finalizer()
 
 
-class RecomputedWeights(Sequence[Contributors]):
+class RecomputedWeights(PerView[Contributors]):
     """The blending weights of each view, rebuilt by the rasterizer at each use and never
     kept: memory for one view at a time and no disk, at the price of one rasterization per
     use (the alternative to a :class:`ViewSpill` of the weights)."""
@@ -223,20 +235,8 @@ class RecomputedWeights(Sequence[Contributors]):
     def __len__(self) -> int:
         return len(self._cameras)
 
-    @overload
-    def __getitem__(self, index: int) -> Contributors: ...
-
-    @overload
-    def __getitem__(self, index: slice) -> Sequence[Contributors]: ...
-
-    def __getitem__(self, index: int | slice) -> Contributors | Sequence[Contributors]:
+    def _view(self, index: int) -> Contributors:
         from causalsplat.render import build_contributors
 
-        if isinstance(index, slice):
-            return [self[i] for i in range(*index.indices(len(self)))]
         camera = self._cameras[index]
         return build_contributors(self._scene, camera, config=self._raster, cache=False)
-
-    def __iter__(self) -> Iterator[Contributors]:
-        for i in range(len(self)):
-            yield self[i]
