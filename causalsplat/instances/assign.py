@@ -190,15 +190,34 @@ def _best_of(scores: np.ndarray | sp.csr_matrix, share: bool) -> tuple[np.ndarra
             inv = np.divide(1.0, total, out=np.zeros_like(total), where=total > 0)
             sub = sp.csr_matrix(sp.diags(inv) @ sub)
         sub.sort_indices()
-        best = np.asarray(sub.argmax(axis=1)).ravel().astype(np.int64)
-        value = np.asarray(sub.max(axis=1).toarray()).ravel()
-        return best, value
+        return _csr_row_argmax(sub)
     dense = np.asarray(scores)
     if share:
         total = dense.sum(axis=1, keepdims=True)
         dense = np.divide(dense, total, out=np.zeros_like(dense), where=total > 0)
     best = dense.argmax(axis=1)
     return best, dense[np.arange(dense.shape[0]), best]
+
+
+def _csr_row_argmax(m: sp.csr_matrix) -> tuple[np.ndarray, np.ndarray]:
+    """Per row of a non-negative CSR matrix with sorted indices: the first column of its
+    largest value and that value (column 0 and 0.0 for a row of zeros), as the dense
+    ``argmax`` gives; scipy's own loops over the rows in Python."""
+    n = m.shape[0]
+    best = np.zeros(n, dtype=np.int64)
+    value = np.zeros(n, dtype=np.float64)
+    lengths = np.diff(m.indptr)
+    filled = np.flatnonzero(lengths > 0)
+    if filled.size == 0:
+        return best, value
+    starts = m.indptr[:-1][filled]
+    value[filled] = np.maximum.reduceat(m.data, starts)
+    at_max = m.data == np.repeat(value, lengths)
+    position = np.where(at_max, np.arange(m.data.shape[0]), m.data.shape[0])
+    first = np.minimum.reduceat(position, starts)
+    best[filled] = m.indices[first]
+    best[value <= 0] = 0  # every entry of the row is 0
+    return best, value
 
 
 def _assign(
