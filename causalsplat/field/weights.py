@@ -136,7 +136,10 @@ def view_masks(
             (np.concatenate(vals).astype(np.float32), (np.concatenate(rows), np.concatenate(cols))),
             shape=(len(kept), n_pixels),
         )
-        pixels = np.unique(np.concatenate(cols))
+        covered = np.zeros(n_pixels, dtype=bool)  # a flag per pixel: no sort, as unique does
+        for c in cols:
+            covered[c] = True
+        pixels = np.flatnonzero(covered)
     else:
         matrix = sp.csr_matrix((0, n_pixels), dtype=np.float32)
         pixels = np.zeros(0, dtype=np.int64)
