@@ -79,7 +79,8 @@ def parse_mib(text: str) -> int:
 @click.option(
     "--threads",
     type=click.IntRange(min=1),
-    help="Threads of the rasterizer and the field (default: the cores this process may use).",
+    help="Threads of the rasterizer (default: the cores this process may use); the "
+    "training's small steps run on one.",
 )
 @click.option(
     "--memory-budget",
