@@ -35,6 +35,9 @@ class FieldConfig:
             over all views) or ``random`` (i.i.d. normal features).
         iterations: contrastive steps (one view each; 0 = the initialisation only).
         learning_rate: Adam's step size on the per-Gaussian features.
+        pixels_per_step: covered pixels of the view that one step's loss samples
+            (uniformly, without replacement); 0 takes them all. Rendering, loss and
+            gradient cost in proportion.
         margin: m, negatives are pushed to cosine similarity at most ``margin`` (0.03).
         hard_negative: τ, a negative pixel with similarity above this is always kept (0.5).
         negative_weight: λ, weight of the negative term against the positive one.
@@ -54,6 +57,7 @@ class FieldConfig:
     init: Init = "uplift"
     iterations: int = 300
     learning_rate: float = 0.02
+    pixels_per_step: int = 8192
     margin: float = 0.03
     hard_negative: float = 0.5
     negative_weight: float = 1.0
@@ -71,6 +75,10 @@ class FieldConfig:
             ("init", self.init in ("uplift", "random")),
             ("iterations", isinstance(self.iterations, int) and self.iterations >= 0),
             ("learning_rate", _finite(self.learning_rate) and self.learning_rate > 0),
+            (
+                "pixels_per_step",
+                isinstance(self.pixels_per_step, int) and self.pixels_per_step >= 0,
+            ),
             ("margin", _finite(self.margin) and -1.0 <= self.margin < 1.0),
             ("hard_negative", _finite(self.hard_negative) and -1.0 <= self.hard_negative <= 1.0),
             ("negative_weight", _finite(self.negative_weight) and self.negative_weight >= 0),

@@ -26,7 +26,8 @@ class Contributors:
         weights: (nnz,) float32 blending weights, in [0, 1], summing to <= 1 per row.
         depths: (N,) float32 camera-frame z of each Gaussian centre (scene units), 0 for
             Gaussians culled from this view.
-        key: hex content hash of (scene geometry, camera, config) that built it.
+        key: hex content hash of (scene geometry, camera, config) that built it; empty
+            when it was built outside the cache (``build_contributors(cache=False)``).
     """
 
     width: int
@@ -67,6 +68,42 @@ class Contributors:
         return sp.csr_matrix(
             (data, self.indices, self.indptr), shape=(self.n_pixels, self.n_gaussians)
         )
+
+    def rows(self, pixels: np.ndarray) -> Contributors:
+        """The weights of the flat ``pixels`` only, in that order, as a 1-row "image".
+
+        The result has ``width = len(pixels)`` and ``height = 1``; rendering it gives the
+        rows of the full render at ``pixels``. Copies only the selected weights.
+
+        >>> c = Contributors(2, 2, 3, np.array([0, 1, 1, 3, 4]), np.array([0, 1, 2, 2], np.int32),
+        ...                  np.array([.5, .25, .5, 1.], np.float32), np.zeros(3, np.float32), "")
+        >>> r = c.rows(np.array([3, 2]))
+        >>> r.indptr.tolist(), r.indices.tolist(), r.weights.tolist()
+        ([0, 1, 3], [2, 1, 2], [1.0, 0.25, 0.5])
+        """
+        pixels = np.asarray(pixels, dtype=np.int64)
+        if pixels.size and (pixels.min() < 0 or pixels.max() >= self.n_pixels):
+            from causalsplat.render.errors import RenderError
+
+            raise RenderError(f"pixels must be in [0, {self.n_pixels}), the view's pixels")
+        from causalsplat.render._backend import numba_available
+
+        if numba_available():
+            from causalsplat.render._kernel_rows import select_rows
+
+            indptr, indices, weights = select_rows(self.indptr, self.indices, self.weights, pixels)
+        else:
+            starts = np.asarray(self.indptr)[pixels]
+            lengths = np.asarray(self.indptr)[pixels + 1] - starts
+            indptr = np.zeros(pixels.shape[0] + 1, dtype=np.int64)
+            np.cumsum(lengths, out=indptr[1:])
+            take = np.repeat(starts - indptr[:-1], lengths) + np.arange(indptr[-1])
+            indices = np.asarray(self.indices)[take]
+            weights = np.asarray(self.weights)[take]
+        return Contributors(
+            int(pixels.shape[0]), 1, self.n_gaussians, indptr, indices, weights, self.depths,
+            self.key,
+        )  # fmt: skip
 
     def alpha(self) -> np.ndarray:
         """(H, W) float64 accumulated opacity: the sum of the weights of each pixel."""

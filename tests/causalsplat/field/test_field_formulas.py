@@ -97,7 +97,7 @@ def _loss(masks: np.ndarray, feats: np.ndarray, **cfg: float) -> float:
     rendered = torch.tensor(feats, dtype=torch.float64)
     terms = _view_terms(vm)
     g = torch.Generator().manual_seed(0)
-    return float(contrastive_loss(rendered, terms, config, g))
+    return float(contrastive_loss(rendered[terms.pixels], terms, config, g))
 
 
 def test_contrastive_loss_hand_values() -> None:
@@ -124,7 +124,8 @@ def test_overlapping_masks_are_not_negatives_of_each_other() -> None:
     ("name", "value"),
     [("feature_dim", 1), ("w_min", 1.5), ("w_min", float("nan")), ("eps", 0.0),
      ("weighting", "median"), ("init", "zeros"), ("iterations", -1), ("margin", 1.0),
-     ("learning_rate", 0.0), ("min_mask_pixels", 0), ("min_pixel_alpha", 1.0), ("seed", -1)],
+     ("learning_rate", 0.0), ("pixels_per_step", -1), ("min_mask_pixels", 0),
+     ("min_pixel_alpha", 1.0), ("seed", -1)],
 )  # fmt: skip
 def test_field_config_rejects_out_of_range_values(name: str, value: object) -> None:
     with pytest.raises(FieldConfigError, match=f"FieldConfig.{name}"):

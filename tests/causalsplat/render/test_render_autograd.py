@@ -47,3 +47,37 @@ def test_no_grad_input_and_wrong_shape(
         render_features(contrib, torch.rand(scene.n + 1, 2))
     with pytest.raises(RenderError):
         render_features(contrib, torch.rand(scene.n))
+
+
+def test_rows_render_the_chosen_pixels_and_their_gradient(
+    random_scene: Callable[..., GaussianScene], camera: Camera, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``Contributors.rows`` (compiled and numpy) gives the full render's rows at the chosen
+    pixels, in their order, and the gradient of a loss on them equals the full one's."""
+    from causalsplat.render import _backend
+
+    scene = random_scene(3)
+    contrib = build_contributors(scene, camera)
+    rng = np.random.default_rng(0)
+    pixels = rng.choice(contrib.n_pixels, 40, replace=False)  # unsorted on purpose
+    feats = torch.rand(scene.n, 3, dtype=torch.float64, requires_grad=True)
+    full = render_features(contrib, feats)
+    (full[torch.from_numpy(pixels)] ** 2).sum().backward()
+    assert feats.grad is not None
+    want = feats.grad.clone()
+    parts = []
+    for compiled in (True, False):
+        monkeypatch.setattr(_backend, "numba_available", lambda c=compiled: c)
+        sub = contrib.rows(pixels)
+        assert (sub.width, sub.height, sub.n_gaussians) == (40, 1, scene.n)
+        parts.append((sub.indptr, sub.indices, sub.weights))
+        feats.grad = None
+        out = render_features(sub, feats)
+        torch.testing.assert_close(out, full[torch.from_numpy(pixels)].detach())
+        (out**2).sum().backward()
+        torch.testing.assert_close(feats.grad, want)
+    for a, b in zip(*parts, strict=True):
+        np.testing.assert_array_equal(a, b)
+    assert contrib.rows(np.zeros(0, dtype=np.int64)).nnz == 0
+    with pytest.raises(RenderError, match=rf"pixels must be in \[0, {contrib.n_pixels}\)"):
+        contrib.rows(np.array([contrib.n_pixels]))

@@ -1,0 +1,47 @@
+"""Compiled row selection of a view's CSR weights (imports numba; imported lazily).
+
+:meth:`causalsplat.render.types.Contributors.rows` with numpy builds an index array as
+long as the selected weights and gathers through it; this copies each selected row's
+slice straight into the output, one pass, no temporaries.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from causalsplat.render._jit import jit
+
+
+@jit()
+def _copy_rows(  # pragma: no cover - compiled
+    indptr: np.ndarray,
+    indices: np.ndarray,
+    weights: np.ndarray,
+    pixels: np.ndarray,
+    out_indptr: np.ndarray,
+    out_indices: np.ndarray,
+    out_weights: np.ndarray,
+) -> None:
+    for i in range(pixels.shape[0]):
+        start = indptr[pixels[i]]
+        at = out_indptr[i]
+        for k in range(indptr[pixels[i] + 1] - start):
+            out_indices[at + k] = indices[start + k]
+            out_weights[at + k] = weights[start + k]
+
+
+def select_rows(
+    indptr: np.ndarray, indices: np.ndarray, weights: np.ndarray, pixels: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(indptr, indices, weights) of the CSR rows ``pixels`` (int64), in that order."""
+    indptr = np.asarray(indptr)
+    lengths = indptr[pixels + 1] - indptr[pixels]
+    out_indptr = np.zeros(pixels.shape[0] + 1, dtype=np.int64)
+    np.cumsum(lengths, out=out_indptr[1:])
+    out_indices = np.empty(int(out_indptr[-1]), dtype=np.asarray(indices).dtype)
+    out_weights = np.empty(int(out_indptr[-1]), dtype=np.asarray(weights).dtype)
+    _copy_rows(indptr, indices, weights, pixels, out_indptr, out_indices, out_weights)
+    return out_indptr, out_indices, out_weights
+
+
+__all__ = ["select_rows"]
