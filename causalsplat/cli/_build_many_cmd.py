@@ -90,7 +90,7 @@ def build_many(
     scene. Prints a summary (built, skipped, failed, scenes per hour); exits with status 1
     when a scene failed.
     """
-    from causalsplat.api import open_store
+    from causalsplat.build.batch import build_many as build_many_scenes
 
     config = config_from_options(config_file, max_views, labeler, allow_distortion, image_scale,
                                  threads, memory_budget, views)  # fmt: skip
@@ -99,18 +99,18 @@ def build_many(
     def line(text: str) -> None:
         click.echo(f"causalsplat: {text}", err=True)
 
-    with open_store(db_url) as store:
-        report = store.build_many(
-            folders,
-            workers=workers,
-            ray_address=ray_address,
-            config=config,
-            if_exists=if_exists,  # type: ignore[arg-type]
-            retries=retries,
-            cache_dir=False if no_cache else (cache_dir or True),
-            report_path=report_path,
-            progress=line if show else None,
-        )
+    report = build_many_scenes(
+        folders,
+        db_url,
+        workers=workers,
+        ray_address=ray_address,
+        config=config,
+        if_exists=if_exists,  # type: ignore[arg-type]
+        retries=retries,
+        cache_dir=False if no_cache else (cache_dir or True),
+        report_path=report_path,
+        progress=line if show else None,
+    )
     if as_json:
         echo_json(report.to_json())
     else:
