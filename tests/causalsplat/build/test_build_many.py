@@ -23,18 +23,6 @@ from tests.conftest import COMMAND_TIMEOUT_S, REPO_ROOT
 FAST = BuildConfig(field=FieldConfig(iterations=40))
 
 
-@pytest.fixture(scope="session")
-def batch_folders(tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
-    """Three tiny synthetic scene folders (ids synth-tiny-0 .. 2)."""
-    from causalsplat.synth import synth_scene
-
-    root = tmp_path_factory.mktemp("batch")
-    folders = [root / f"tiny{seed}" for seed in range(3)]
-    for seed, folder in enumerate(folders):
-        synth_scene("tiny", seed, folder)
-    return folders
-
-
 def _rows(url: str) -> dict[str, dict[str, int]]:
     """Rows of every scene-owned table per scene id, read straight from the database."""
     from graph_store import models as m
