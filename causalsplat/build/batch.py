@@ -232,7 +232,7 @@ def build_many(
         threads = config.raster.threads or 1
         events.line(
             f"[batch] {len(tasks)} scenes into {store}, "
-            + (f"{workers} workers" if ray_address is None else f"Ray at {ray_address}")
+            + (f"{workers} worker(s)" if ray_address is None else f"Ray at {ray_address}")
             + f", {threads} thread(s) and {config.memory_budget_mib} MiB of views per scene"
         )
         if ray_address is None:

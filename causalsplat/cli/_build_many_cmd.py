@@ -118,7 +118,7 @@ def build_many(
         click.echo(
             f"{s['scenes']} scenes: {s['built']} built, {s['skipped']} skipped, "
             f"{s['failed']} failed in {s['seconds']:.1f} s ({s['scenes_per_hour']:.1f} scenes "
-            f"per hour, {s['workers']} {'Ray tasks' if s['engine'] == 'ray' else 'workers'}, "
+            f"per hour, {_workers(s['workers'], s['engine'])}, "
             f"peak {s['peak_rss_mib']:.0f} MiB per scene)"
         )
         for o in report.outcomes:
@@ -134,3 +134,14 @@ def build_many(
             + (f" (see {report_path})" if report_path else "")
             + "; once fixed, the same command builds only what is missing"
         )
+
+
+def _workers(n: int, engine: str) -> str:
+    """How many ran at once, for the summary line.
+
+    >>> _workers(1, "local"), _workers(4, "ray")
+    ('1 worker', '4 Ray tasks at once')
+    """
+    if engine == "ray":
+        return f"{n} Ray task{'s' if n != 1 else ''} at once"
+    return f"{n} worker{'s' if n != 1 else ''}"
