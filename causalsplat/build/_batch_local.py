@@ -18,7 +18,7 @@ import os
 import signal
 import time
 from collections import deque
-from collections.abc import Iterator
+from collections.abc import Collection, Iterator
 from contextlib import contextmanager, suppress
 from multiprocessing.connection import Connection, wait
 from multiprocessing.process import BaseProcess
@@ -122,7 +122,7 @@ def run_local(tasks: list[SceneTask], workers: int, retries: int, events: _Event
             worker.stop()
 
 
-def _collect(worker: _Worker, ready: set[object]) -> tuple[SceneOutcome | None, bool]:
+def _collect(worker: _Worker, ready: Collection[object]) -> tuple[SceneOutcome | None, bool]:
     """The outcome ``worker`` sent, or the failure of its scene if it died; ``(None, _)``
     when it is still at work (or idle and alive)."""
     if worker.task is None:
