@@ -47,6 +47,8 @@ IF_EXISTS: tuple[str, ...] = ("skip", "replace", "rebuild")
 #: Views' memory budget of a Ray task when the config sets none (MiB): the driver cannot
 #: know the memory of the node a task lands on.
 RAY_DEFAULT_BUDGET_MIB = 2048
+#: RAM per local worker that the default number of workers keeps (MiB).
+MIB_PER_WORKER = 4096
 
 
 class BatchError(CausalSplatError):
@@ -189,8 +191,8 @@ def build_many(
             (the ``scene_id`` of its ``queries.json`` or ``objects.json``, else the
             folder's name).
         store_url: a SQLite file or PostgreSQL URL every worker can reach.
-        workers: scenes built at once (default: local, 2 or the cores if fewer; Ray, as
-            many as the cluster's resources let run).
+        workers: scenes built at once (default: local, :func:`default_workers`; Ray, as
+            many as the cluster's CPUs let run).
         ray_address: run each scene as a Ray task on this cluster (``"local"``: start one
             on this machine; ``"auto"``: the one this machine belongs to); ``None``: a
             local pool of worker processes.
@@ -215,10 +217,10 @@ def build_many(
     config = config or BuildConfig()
     paths = _check_folders(folders)
     ids = plan_scene_ids(paths)
-    store = _prepare_store(store_url, ray_address)
+    store = _prepare_store(store_url)
     cores = _cores()
     if ray_address is None:
-        workers = min(workers or min(2, cores), len(paths))
+        workers = min(workers or default_workers(cores), len(paths))
         config = per_worker_config(config, workers, cores)
     else:
         config = per_task_config(config)
@@ -292,6 +294,13 @@ def per_worker_config(config: BuildConfig, workers: int, cores: int) -> BuildCon
     return config
 
 
+def default_workers(cores: int) -> int:
+    """Local workers by default: one per core, at most one per :data:`MIB_PER_WORKER` of
+    RAM (a build holds the interpreter, torch and the scene's per-Gaussian arrays besides
+    its views' budget)."""
+    return max(1, min(cores, _physical_memory() // (MIB_PER_WORKER * 2**20)))
+
+
 def per_task_config(config: BuildConfig) -> BuildConfig:
     """``config`` for a Ray task: one thread and :data:`RAY_DEFAULT_BUDGET_MIB` of views
     unless it says otherwise (the driver does not know the nodes the tasks land on)."""
@@ -324,7 +333,7 @@ def _is_sqlite(url: str) -> bool:
     return url.split(":", 1)[0].split("+", 1)[0] == "sqlite"
 
 
-def _prepare_store(url: str, ray_address: str | None) -> str:
+def _prepare_store(url: str) -> str:
     """Create the store (schema) once before the workers open it; its URL for messages."""
     from graph_store import open_store
 

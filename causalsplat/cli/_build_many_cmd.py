@@ -17,8 +17,8 @@ from causalsplat.cli._build_cmd import build_options, config_from_options
 @click.option(
     "--workers",
     type=click.IntRange(min=1),
-    help="Scenes built at once (default: 2, or the cores if fewer; with --ray: as many as "
-    "the cluster's CPUs allow).",
+    help="Scenes built at once (default: one per core, at most one per 4 GiB of RAM; with "
+    "--ray: as many as the cluster's CPUs allow).",
 )
 @click.option(
     "--ray",
