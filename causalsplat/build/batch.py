@@ -64,7 +64,7 @@ class SceneOutcome:
         scene_id: the id the scene is (or would have been) stored under.
         folder: the scene folder, absolute.
         status: ``built``, ``skipped`` (already stored with the same inputs) or ``failed``.
-        attempts: attempts made (0 for a skipped scene found stored before any build).
+        attempts: attempts made (the last one built, skipped or failed the scene).
         seconds: wall seconds of the last attempt (the build and the save).
         peak_rss_mib: peak resident memory of the last attempt's worker, MiB (0 unknown).
         entities, relations: counts of the stored scene (0 unless built).
@@ -104,7 +104,7 @@ class BatchReport:
     order the folders were given, and the batch's wall time.
 
     >>> r = BatchReport((SceneOutcome("a", "/d/a", "built", seconds=30.0),
-    ...                  SceneOutcome("b", "/d/b", "skipped", attempts=0)),
+    ...                  SceneOutcome("b", "/d/b", "skipped")),
     ...                 seconds=36.0, workers=2, engine="local", store="sqlite:///s.db")
     >>> r.built, r.skipped, r.failed, r.scenes_per_hour
     (1, 1, 0, 100.0)
