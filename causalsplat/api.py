@@ -19,7 +19,7 @@ from __future__ import annotations
 import errno
 import os
 import re
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
 
@@ -39,6 +39,7 @@ if TYPE_CHECKING:
     import numpy.typing as npt
 
     from causalsplat.build import BuildConfig, BuildResult
+    from causalsplat.build.batch import BatchIfExists, BatchReport
     from causalsplat.eval.reasoning import EvalReport
     from causalsplat.export import PlyExport
     from causalsplat.reason import Answer, Reasoner, SceneContext
@@ -169,6 +170,35 @@ class Store:
         )
         scene.build_report = result
         return scene
+
+    def build_many(
+        self,
+        folders: Sequence[str | Path],
+        *,
+        workers: int | None = None,
+        ray_address: str | None = None,
+        config: BuildConfig | str | Path | None = None,
+        if_exists: BatchIfExists = "skip",
+        retries: int = 1,
+        cache_dir: str | Path | bool | None = True,
+        report_path: str | Path | None = None,
+        progress: Callable[[str], None] | None = None,
+    ) -> BatchReport:
+        """Build many scene folders into this store, resumably, in worker processes or on
+        a Ray cluster (``ray_address``); see :func:`causalsplat.build.batch.build_many`.
+        Scenes already stored with the same inputs are skipped; a failed scene is in the
+        report (``report.failed``), never raised."""
+        from causalsplat.build import BuildConfig
+        from causalsplat.build.batch import build_many
+
+        if isinstance(config, str | Path):
+            config = BuildConfig.from_file(config)
+        url = self.graph_store.engine.url.render_as_string(hide_password=False)
+        return build_many(
+            folders, url, workers=workers, ray_address=ray_address, config=config,
+            if_exists=if_exists, retries=retries, cache_dir=cache_dir,
+            report_path=report_path, progress=progress,
+        )  # fmt: skip
 
     # -- RDF ---------------------------------------------------------------------------
 

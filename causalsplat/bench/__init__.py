@@ -21,7 +21,7 @@ from typing import Any
 #: Benchmark modules, in report order. A module listed here that is not importable
 #: (its optional dependencies missing) is reported as skipped.
 BENCHMARKS: tuple[str, ...] = (
-    "store", "queries", "render", "edges", "build", "scale", "reasoning",
+    "store", "queries", "render", "edges", "build", "scale", "batch", "reasoning",
 )  # fmt: skip
 
 

@@ -223,7 +223,7 @@ def _build(
         folder = scale_folder(
             folder, config.image_scale, config.memory_budget_bytes() // _MASK_SHARE
         )
-        hashes = {k: v for k, v in folder.input_hashes().items() if not k.startswith("gt/")}
+        hashes = _result_hashes(folder)
         coverage = check_coverage(folder, config)
     result = config.result_json()  # less the speed-only options
     field_key = cache_key(
@@ -444,6 +444,25 @@ def _declared_in(paths: tuple[Path | None, ...]) -> str | None:
         if isinstance(value, str) and value:
             return value
     return None
+
+
+def _result_hashes(folder: SceneFolder) -> dict[str, str]:
+    """The input hashes a build's result depends on (the GT labels only score it)."""
+    return {k: v for k, v in folder.input_hashes().items() if not k.startswith("gt/")}
+
+
+def scene_input_hashes(path: str | Path, config: BuildConfig | None = None) -> dict[str, str]:
+    """The input file hashes :func:`build_scene` would record in the provenance of the
+    scene built from ``path`` with ``config`` (the files it reads, as it picks them: the
+    PLY, the camera files, the mask files of the views ``max_views`` keeps). Reads the
+    folder as the ``load`` stage does, without the later stages, so a batch can tell an
+    already stored scene from one whose inputs changed."""
+    config = config or BuildConfig()
+    folder = read_scene_folder(
+        path, max_views=config.max_views, allow_distortion=config.allow_distortion,
+        mask_budget=config.memory_budget_bytes() // _MASK_SHARE,
+    )  # fmt: skip
+    return _result_hashes(folder)
 
 
 def scene_id_of(path: str | Path, scene_id: str | None = None) -> str:

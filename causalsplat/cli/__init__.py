@@ -17,6 +17,7 @@ from causalsplat.cli import _scene_cmds  # noqa: F401  isort: skip
 from causalsplat.cli import _query_cmds  # noqa: F401  isort: skip
 from causalsplat.cli import _reason_cmds  # noqa: F401  isort: skip
 from causalsplat.cli import _build_cmd  # noqa: F401  isort: skip
+from causalsplat.cli import _build_many_cmd  # noqa: F401  isort: skip
 from causalsplat.cli import _masks_cmds  # noqa: F401  isort: skip
 from causalsplat.cli import _serve_cmd  # noqa: F401  isort: skip
 

@@ -2,11 +2,18 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
+from typing import TYPE_CHECKING, TypeVar
 
 import click
 
 from causalsplat.cli._app import cli, db_option, echo_json, fail, json_option
+
+if TYPE_CHECKING:
+    from causalsplat.build import BuildConfig
+
+F = TypeVar("F")
 
 _UNITS = {"K": 2**-10, "M": 1, "G": 2**10, "T": 2**20}
 
@@ -29,6 +36,104 @@ def parse_mib(text: str) -> int:
     return int(mib)
 
 
+_BUILD_OPTIONS = [
+    click.option(
+        "--config",
+        "config_file",
+        type=click.Path(dir_okay=False, path_type=Path),
+        help="JSON file of build options (sections raster, field, instances, nodes, edges).",
+    ),
+    click.option(
+        "--max-views", type=click.IntRange(min=1), help="Use at most N evenly spaced views."
+    ),
+    click.option(
+        "--cache-dir",
+        type=click.Path(file_okay=False, path_type=Path),
+        help="Stage cache directory (default $CAUSALSPLAT_CACHE or ~/.cache/causalsplat).",
+    ),
+    click.option("--no-cache", is_flag=True, help="Compute every stage; read and write no cache."),
+    click.option(
+        "--labeler",
+        type=click.Choice(["masks", "vlm"]),
+        default=None,
+        help="Who names the entities: the mask labels' vote (default) or a VLM server "
+        "($CAUSALSPLAT_VLM_BASE_URL, $CAUSALSPLAT_VLM_MODEL) looking at each entity's crop.",
+    ),
+    click.option(
+        "--allow-distortion",
+        is_flag=True,
+        help="Read COLMAP cameras with lens distortion as pinhole cameras (with a warning) "
+        "instead of refusing them; undistorting first (colmap image_undistorter) is exact.",
+    ),
+    click.option(
+        "--image-scale",
+        type=click.FloatRange(min=0, max=1, min_open=True),
+        help="Work at this fraction of the masks' resolution, in (0, 1] (cameras and masks "
+        "scaled down; time and memory of the views fall with its square).",
+    ),
+    click.option(
+        "--threads",
+        type=click.IntRange(min=1),
+        help="Threads of the rasterizer (default: the cores this process may use; build-many: "
+        "the cores divided between its workers); the training's small steps run on one.",
+    ),
+    click.option(
+        "--memory-budget",
+        metavar="SIZE",
+        help="Memory the views' data may keep, e.g. 12G or 800M (default: a quarter of the RAM; "
+        "build-many: divided between its workers); views past it are memory-mapped from a "
+        "temporary folder.",
+    ),
+    click.option(
+        "--views",
+        type=click.Choice(["auto", "memory", "disk", "recompute"]),
+        help="Where the views' weights stay between passes: auto (memory up to the budget, "
+        "then disk), memory, disk, or recompute (rasterized again at each use).",
+    ),
+]
+
+
+def build_options(func: F) -> F:
+    """The options of ``build`` that set the build config and the stage cache (shared with
+    ``build-many``, where they apply to each scene)."""
+    for option in reversed(_BUILD_OPTIONS):
+        func = option(func)
+    return func
+
+
+def config_from_options(
+    config_file: Path | None,
+    max_views: int | None,
+    labeler: str | None,
+    allow_distortion: bool,
+    image_scale: float | None,
+    threads: int | None,
+    memory_budget: str | None,
+    views: str | None,
+) -> BuildConfig:
+    """The build config of the config file (or the defaults) and the options given."""
+    from causalsplat.build import BuildConfig
+
+    config = BuildConfig.from_file(config_file) if config_file else BuildConfig()
+    if max_views is not None:
+        config = dataclasses.replace(config, max_views=max_views)
+    if labeler is not None:
+        config = dataclasses.replace(config, labeler=labeler)
+    if allow_distortion:
+        config = dataclasses.replace(config, allow_distortion=True)
+    if image_scale is not None:
+        config = dataclasses.replace(config, image_scale=image_scale)
+    if threads is not None:
+        config = dataclasses.replace(
+            config, raster=dataclasses.replace(config.raster, threads=threads)
+        )
+    if memory_budget is not None:
+        config = dataclasses.replace(config, memory_budget_mib=parse_mib(memory_budget))
+    if views is not None:
+        config = dataclasses.replace(config, views=views)  # type: ignore[arg-type]
+    return config
+
+
 @cli.command("build")
 @click.argument("scene_dir", type=click.Path(file_okay=False, path_type=Path))
 @click.option(
@@ -38,62 +143,13 @@ def parse_mib(text: str) -> int:
     "else the folder's name).",
 )
 @click.option(
-    "--config",
-    "config_file",
-    type=click.Path(dir_okay=False, path_type=Path),
-    help="JSON file of build options (sections raster, field, instances, nodes, edges).",
-)
-@click.option("--max-views", type=click.IntRange(min=1), help="Use at most N evenly spaced views.")
-@click.option(
     "--if-exists",
     type=click.Choice(["fail", "replace"]),
     default="fail",
     show_default=True,
     help="What to do when a scene with this id is already stored.",
 )
-@click.option(
-    "--cache-dir",
-    type=click.Path(file_okay=False, path_type=Path),
-    help="Stage cache directory (default $CAUSALSPLAT_CACHE or ~/.cache/causalsplat).",
-)
-@click.option("--no-cache", is_flag=True, help="Compute every stage; read and write no cache.")
-@click.option(
-    "--labeler",
-    type=click.Choice(["masks", "vlm"]),
-    default=None,
-    help="Who names the entities: the mask labels' vote (default) or a VLM server "
-    "($CAUSALSPLAT_VLM_BASE_URL, $CAUSALSPLAT_VLM_MODEL) looking at each entity's crop.",
-)
-@click.option(
-    "--allow-distortion",
-    is_flag=True,
-    help="Read COLMAP cameras with lens distortion as pinhole cameras (with a warning) "
-    "instead of refusing them; undistorting first (colmap image_undistorter) is exact.",
-)
-@click.option(
-    "--image-scale",
-    type=click.FloatRange(min=0, max=1, min_open=True),
-    help="Work at this fraction of the masks' resolution, in (0, 1] (cameras and masks "
-    "scaled down; time and memory of the views fall with its square).",
-)
-@click.option(
-    "--threads",
-    type=click.IntRange(min=1),
-    help="Threads of the rasterizer (default: the cores this process may use); the "
-    "training's small steps run on one.",
-)
-@click.option(
-    "--memory-budget",
-    metavar="SIZE",
-    help="Memory the views' data may keep, e.g. 12G or 800M (default: a quarter of the RAM); "
-    "views past it are memory-mapped from a temporary folder.",
-)
-@click.option(
-    "--views",
-    type=click.Choice(["auto", "memory", "disk", "recompute"]),
-    help="Where the views' weights stay between passes: auto (memory up to the budget, "
-    "then disk), memory, disk, or recompute (rasterized again at each use).",
-)
+@build_options
 @click.option(
     "--progress/--no-progress",
     default=None,
@@ -125,28 +181,10 @@ def build(
     stores the graph and the entity of every Gaussian. --json prints stage timings, peak
     memory and, when the folder has gt/gt_labels.npy, the instance quality.
     """
-    import dataclasses
-
     from causalsplat.api import open_store
-    from causalsplat.build import BuildConfig
 
-    config = BuildConfig.from_file(config_file) if config_file else BuildConfig()
-    if max_views is not None:
-        config = dataclasses.replace(config, max_views=max_views)
-    if labeler is not None:
-        config = dataclasses.replace(config, labeler=labeler)
-    if allow_distortion:
-        config = dataclasses.replace(config, allow_distortion=True)
-    if image_scale is not None:
-        config = dataclasses.replace(config, image_scale=image_scale)
-    if threads is not None:
-        config = dataclasses.replace(
-            config, raster=dataclasses.replace(config.raster, threads=threads)
-        )
-    if memory_budget is not None:
-        config = dataclasses.replace(config, memory_budget_mib=parse_mib(memory_budget))
-    if views is not None:
-        config = dataclasses.replace(config, views=views)  # type: ignore[arg-type]
+    config = config_from_options(config_file, max_views, labeler, allow_distortion, image_scale,
+                                 threads, memory_budget, views)  # fmt: skip
     cache: Path | bool = False if no_cache else (cache_dir or True)
     with open_store(db_url) as store:
         scene = store.build(

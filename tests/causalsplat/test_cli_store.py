@@ -15,7 +15,7 @@ from tests.causalsplat.test_objects import KITCHEN, NAN_CENTER
 from tests.conftest import COMMAND_TIMEOUT_S, REPO_ROOT
 
 COMMANDS = [["ingest-objects"], ["scenes"], ["export"], ["sparql"], ["db"], ["db", "upgrade"],
-            ["db", "current"]]  # fmt: skip
+            ["db", "current"], ["build-many"]]  # fmt: skip
 
 
 def run(*args: str, db: str | None = None, check: bool = True) -> subprocess.CompletedProcess[str]:
