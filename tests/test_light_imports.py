@@ -68,3 +68,27 @@ def test_a_cold_ask_imports_only_what_it_uses(tmp_path: Path) -> None:
         )  # fmt: skip
         assert proc.stderr.strip() == "", f"{extra}: imported {proc.stderr.strip()}"
         assert proc.stdout.count('"query":') == len(texts)
+
+
+BUILD = """
+import sys
+from causalsplat.build.pipeline import build_scene
+result = build_scene(sys.argv[1], cache_dir=False)
+assert result.graph.entities
+print("torch" in sys.modules)
+"""
+
+
+def test_a_build_does_not_import_torch(tmp_path: Path) -> None:
+    """The feature field trains with numpy and compiled row kernels (its gradient is
+    written out; tests/causalsplat/field holds it to torch's autograd), so a build never
+    pays torch's import."""
+    from causalsplat.synth import SynthConfig, generate_scene, write_synth_scene
+
+    folder = tmp_path / "scene"
+    write_synth_scene(generate_scene(SynthConfig.preset("tiny", seed=0)), folder)
+    proc = subprocess.run(
+        [sys.executable, "-c", BUILD, str(folder)],
+        capture_output=True, text=True, cwd=REPO_ROOT, check=True,
+    )  # fmt: skip
+    assert proc.stdout.strip() == "False"

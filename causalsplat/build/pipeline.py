@@ -327,10 +327,7 @@ def _field_stage(
     try:
         with stages.stage("field"):
             with _bar(config.field.iterations, "field", progress) as tick:
-                # One torch thread: a step is a few small operations on 8192 pixels, and
-                # torch's OpenMP workers spin-wait between them; on a busy 2-core host two
-                # threads made this stage 5x slower (45 s against 8 s on scene0000_00).
-                field = lift_features(views, config.field, progress=tick, threads=1)
+                field = lift_features(views, config.field, progress=tick)
             with _bar(len(views.masks), "evidence", progress) as tick:
                 evidence = mask_evidence(field, views, progress=tick)
     finally:

@@ -187,12 +187,8 @@ def lift_features(
     config: FieldConfig,
     *,
     progress: Callable[[int], None] | None = None,
-    threads: int | None = None,
 ) -> FeatureField:
-    """Initialise and train the per-Gaussian features of ``views`` (module docstring).
-
-    ``threads``: torch threads of the training (``None``: torch's setting), restored after.
-    """
+    """Initialise and train the per-Gaussian features of ``views`` (module docstring)."""
     n_active = int(views.active.sum())
     if views.supervision is None or (config.init == "uplift" and views.uplift is None):
         raise InputFormatError("lift_features: the views were prepared without the sums it needs")
@@ -214,7 +210,7 @@ def lift_features(
         from causalsplat.field.train import train_features
 
         feats, losses = train_features(
-            views.contributors, views.masks, init, config, progress=progress, threads=threads
+            views.contributors, views.masks, init, config, progress=progress
         )
     full = np.zeros((views.n_gaussians, config.feature_dim), dtype=np.float32)
     full[views.active] = normalize_rows(feats).astype(np.float32)

@@ -1,4 +1,4 @@
-"""Contrastive optimisation of per-Gaussian features through the cached-weight renderer (torch).
+"""Contrastive optimisation of per-Gaussian features through the cached-weight renderer.
 
 One step takes one view (views visited in a seeded random order, each once per epoch) and
 ``FieldConfig.pixels_per_step`` of its covered pixels, drawn uniformly without replacement
@@ -19,6 +19,13 @@ weights ``W_m``:
 Sampling makes a step cost the same at any image size: on scene0000_00 (320x240, 81k
 Gaussians) 8192 pixels a step took 11 ms against 35 ms for all of them, at equal instance
 quality (docs/benchmarks.md).
+
+The loss and its gradient with respect to the rendered features are written out by hand
+(:func:`contrastive_loss_and_grad`; a test holds the gradient to torch's autograd of the
+same formulas), the render and its transpose are compiled row kernels
+(:meth:`~causalsplat.render.types.Contributors.composite_rows`), and Adam is numpy: a
+build does not import torch (about a second), and a step runs no autograd bookkeeping.
+numpy / scipy (numba where it imports).
 """
 
 from __future__ import annotations
@@ -27,25 +34,23 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-import torch
 
 from causalsplat.field.adam import Adam
 from causalsplat.field.blas import single_threaded_blas
 from causalsplat.field.config import FieldConfig
 from causalsplat.field.weights import ViewMasks
-from causalsplat.render.functional import render_features
 from causalsplat.render.types import Contributors
 
 
 @dataclass(frozen=True, slots=True)
 class _ViewTerms:
-    """Per-view constants of the loss (torch): see the module docstring."""
+    """Per-view constants of the loss: see the module docstring."""
 
-    pixels: torch.Tensor  # (P,) int64 covered pixels
-    weights: torch.Tensor  # (M, P) float32 dense, W_m on the covered pixels
-    weight_sums: torch.Tensor  # (M,) float32
-    negative: torch.Tensor  # (P, M) bool, pixel may serve as a negative of mask m
-    n_pos: torch.Tensor  # (M,) float32 pixels per mask
+    pixels: np.ndarray  # (P,) int64 covered pixels
+    weights: np.ndarray  # (M, P) float32 dense, W_m on the covered pixels
+    weight_sums: np.ndarray  # (M,) float32
+    negative: np.ndarray  # (P, M) bool, pixel may serve as a negative of mask m
+    n_pos: np.ndarray  # (M,) float32 pixels per mask
 
 
 def mask_overlap(vm: ViewMasks) -> np.ndarray:
@@ -84,31 +89,69 @@ def _view_terms(
         keep = n_pos > 0
         weights, n_pos, blocked = weights[keep], n_pos[keep], blocked[:, keep]
     return _ViewTerms(
-        pixels=torch.from_numpy(pixels.astype(np.int64)),
-        weights=torch.from_numpy(weights),
-        weight_sums=torch.from_numpy(weights.sum(axis=1, dtype=np.float32)),
-        negative=torch.from_numpy(~blocked),
-        n_pos=torch.from_numpy(n_pos.astype(np.float32)),
+        pixels=pixels.astype(np.int64),
+        weights=weights,
+        weight_sums=weights.sum(axis=1, dtype=np.float32),
+        negative=~blocked,
+        n_pos=n_pos.astype(np.float32),
     )
 
 
 def contrastive_loss(
-    f: torch.Tensor, terms: _ViewTerms, config: FieldConfig, generator: torch.Generator
-) -> torch.Tensor:
+    f: np.ndarray, terms: _ViewTerms, config: FieldConfig, rng: np.random.Generator
+) -> float:
     """The loss of one view (module docstring) from its (P, C) render at ``terms.pixels``."""
-    unit = f / f.norm(dim=1, keepdim=True).clamp_min(1e-8)
-    summed = terms.weights.to(f.dtype) @ unit  # (M, C)
-    length = summed.norm(dim=1)
-    positive = 1.0 - length / terms.weight_sums.to(f.dtype).clamp_min(1e-12)
-    proto = summed / length.clamp_min(1e-12)[:, None]
+    return contrastive_loss_and_grad(f, terms, config, rng)[0]
+
+
+def contrastive_loss_and_grad(
+    f: np.ndarray, terms: _ViewTerms, config: FieldConfig, rng: np.random.Generator
+) -> tuple[float, np.ndarray]:
+    """The loss of one view and its gradient with respect to ``f`` (P, C), in f's dtype.
+
+    The negatives kept (a random draw and the hard ones) are held fixed, as constants of
+    the step; the norms' clamps (1e-8 for a pixel, 1e-12 for a mask's sum) act as in the
+    forward pass, so the gradient is that of the function computed.
+    """
+    dt = f.dtype
+    norm = np.linalg.norm(f, axis=1)
+    n_clamped = np.maximum(norm, 1e-8).astype(dt)
+    unit = f / n_clamped[:, None]
+    w = terms.weights.astype(dt, copy=False)
+    summed = w @ unit  # (M, C)
+    length = np.linalg.norm(summed, axis=1)
+    l_clamped = np.maximum(length, 1e-12).astype(dt)
+    ws = np.maximum(terms.weight_sums, 1e-12).astype(dt)
+    positive = 1.0 - length / ws
+    proto = summed / l_clamped[:, None]
     sim = unit @ proto.T  # (P, M)
-    n_neg = terms.negative.sum(dim=0).to(sim.dtype)
-    ratio = terms.n_pos.to(sim.dtype) / n_neg.clamp_min(1.0)
-    u = torch.rand(sim.shape, generator=generator, dtype=sim.dtype)
-    keep = terms.negative & ((u < ratio[None, :]) | (sim.detach() > config.hard_negative))
-    hinge = torch.relu(sim - config.margin) * keep
-    negative = hinge.sum(dim=0) / keep.sum(dim=0).clamp_min(1).to(sim.dtype)
-    return (positive + config.negative_weight * negative).mean()
+    n_neg = terms.negative.sum(axis=0)
+    ratio = terms.n_pos / np.maximum(n_neg, 1)
+    u = rng.random(sim.shape, dtype=np.float32)
+    keep = terms.negative & ((u < ratio[None, :]) | (sim > config.hard_negative))
+    over = sim - config.margin
+    active = keep & (over > 0)
+    kept = np.maximum(keep.sum(axis=0), 1).astype(dt)
+    negative = np.where(active, over, 0).sum(axis=0) / kept
+    m = positive.shape[0]
+    loss = float(np.mean(positive + config.negative_weight * negative))
+    # Backward, from the loss to the per-pixel features.
+    g_sim = active * (dt.type(config.negative_weight / m) / kept)[None, :]  # (P, M)
+    g_unit = g_sim.astype(dt) @ proto  # through sim = unit @ proto^T
+    g_proto = g_sim.T.astype(dt) @ unit
+    # proto = summed / max(length, 1e-12); positive = 1 - length / ws
+    radial = np.where(length > 1e-12, (proto * g_proto).sum(axis=1), 0)
+    g_summed = (g_proto - radial[:, None] * proto) / l_clamped[:, None]
+    g_length = -dt.type(1.0 / m) / ws  # d length / d summed = summed / length
+    direction = np.divide(summed, length[:, None], out=np.zeros_like(summed),
+                          where=length[:, None] > 0)  # fmt: skip
+    g_summed += g_length[:, None] * direction
+    g_unit += w.T @ g_summed
+    # unit = f / max(norm, 1e-8)
+    g_f = g_unit / n_clamped[:, None]
+    radial_f = (unit * g_unit).sum(axis=1)
+    g_f -= np.where(norm > 1e-8, radial_f, 0)[:, None] * (unit / n_clamped[:, None])
+    return loss, g_f.astype(dt, copy=False)
 
 
 def train_features(
@@ -118,41 +161,34 @@ def train_features(
     config: FieldConfig,
     *,
     progress: Callable[[int], None] | None = None,
-    threads: int | None = None,
 ) -> tuple[np.ndarray, tuple[float, ...]]:
     """Optimise ``init`` (N, C) for ``config.iterations`` steps; returns (features, losses).
 
-    ``threads``: torch threads for the steps (``None``: torch's setting), restored after;
-    numpy's BLAS runs on one thread meanwhile (:mod:`causalsplat.field.blas`).
-
-    Views without usable masks are skipped. ``progress(k)`` is called after each step.
-    Deterministic for a given ``config.seed`` (torch's CPU kernels are).
+    numpy's BLAS runs on one thread meanwhile (:mod:`causalsplat.field.blas`): a step's
+    products are small. Views without usable masks are skipped. ``progress(k)`` is called
+    after each step. Deterministic for a given ``config.seed``.
     """
     views = [i for i, vm in enumerate(masks) if vm.n_masks > 0 and vm.pixels.size > 0]
-    feats = torch.tensor(np.asarray(init, dtype=np.float32), requires_grad=True)
+    feats = np.array(init, dtype=np.float32)
     if not views or config.iterations == 0:
-        return feats.detach().numpy().astype(np.float64), ()
-    before = torch.get_num_threads()
-    if threads is not None:
-        torch.set_num_threads(threads)
-    try:
-        with single_threaded_blas():
-            return _train(contributors, masks, views, feats, config, progress)
-    finally:
-        torch.set_num_threads(before)
+        return feats.astype(np.float64), ()
+    with single_threaded_blas():
+        losses = _train(contributors, masks, views, feats, config, progress)
+    return feats.astype(np.float64), losses
 
 
 def _train(
     contributors: Sequence[Contributors],
     masks: Sequence[ViewMasks],
     views: list[int],
-    feats: torch.Tensor,
+    feats: np.ndarray,
     config: FieldConfig,
     progress: Callable[[int], None] | None,
-) -> tuple[np.ndarray, tuple[float, ...]]:
+) -> tuple[float, ...]:
+    """Train ``feats`` in place; returns the losses."""
     optimiser = Adam(feats, lr=config.learning_rate)
     overlaps: dict[int, np.ndarray] = {}
-    generator = torch.Generator().manual_seed(config.seed)
+    negatives_rng = np.random.default_rng([config.seed, 4])
     order_rng = np.random.default_rng(config.seed)
     sample_rng = np.random.default_rng([config.seed, 3])
     order: list[int] = []
@@ -161,7 +197,6 @@ def _train(
         if not order:
             order = [views[k] for k in order_rng.permutation(len(views))]
         v = order.pop()
-        optimiser.zero_grad()
         # A view's weights and loss terms are made for its step and dropped after it, so
         # memory holds one view at a time (views may be read from disk, see prepare_views).
         vm = masks[v]
@@ -173,11 +208,11 @@ def _train(
         if v not in overlaps:
             overlaps[v] = mask_overlap(vm)
         terms = _view_terms(vm, sample, overlaps[v])
-        rendered = render_features(contributors[v].rows(terms.pixels.numpy()), feats)
-        loss = contrastive_loss(rendered, terms, config, generator)
-        loss.backward()
-        optimiser.step()
-        losses.append(float(loss.detach()))
+        contrib = contributors[v]
+        rendered = contrib.composite_rows(terms.pixels, feats)
+        loss, grad = contrastive_loss_and_grad(rendered, terms, config, negatives_rng)
+        optimiser.step(contrib.transposed_rows(terms.pixels, grad))
+        losses.append(loss)
         if progress is not None:
             progress(step + 1)
-    return feats.detach().numpy().astype(np.float64), tuple(losses)
+    return tuple(losses)

@@ -91,6 +91,58 @@ class TransposedComposite(torch.autograd.Function):
         return SparseComposite.apply(grad_out, ctx.contributors), None  # type: ignore[no-untyped-call]
 
 
-def composite_features(contributors: Contributors, features: torch.Tensor) -> torch.Tensor:
-    """(H*W, C) composite of (N, C) features (float32 or float64, CPU)."""
-    return SparseComposite.apply(features, contributors)  # type: ignore[no-any-return,no-untyped-call]
+def _rows_forward(c: Contributors, pixels: np.ndarray, values: torch.Tensor) -> torch.Tensor:
+    return torch.from_numpy(c.composite_rows(pixels, values.detach().numpy()))
+
+
+def _rows_backward(c: Contributors, pixels: np.ndarray, grad: torch.Tensor) -> torch.Tensor:
+    return torch.from_numpy(c.transposed_rows(pixels, grad.detach().numpy()))
+
+
+class RowsComposite(torch.autograd.Function):
+    """``out = W[pixels] @ features`` read in place from the view's CSR (compiled);
+    backward ``W[pixels]^T @ grad_out`` (a :class:`RowsTransposedComposite`)."""
+
+    @staticmethod
+    def forward(
+        ctx: Any, features: torch.Tensor, contributors: Contributors, pixels: np.ndarray
+    ) -> torch.Tensor:
+        ctx.contributors, ctx.pixels = contributors, pixels
+        return _rows_forward(contributors, pixels, features)
+
+    @staticmethod
+    def backward(ctx: Any, grad_out: torch.Tensor) -> tuple[torch.Tensor | None, None, None]:
+        if not ctx.needs_input_grad[0]:
+            return None, None, None
+        grad = RowsTransposedComposite.apply(grad_out, ctx.contributors, ctx.pixels)  # type: ignore[no-untyped-call]
+        return grad, None, None
+
+
+class RowsTransposedComposite(torch.autograd.Function):
+    """``out = W[pixels]^T @ grad``; backward ``W[pixels] @ grad_out``."""
+
+    @staticmethod
+    def forward(
+        ctx: Any, grad: torch.Tensor, contributors: Contributors, pixels: np.ndarray
+    ) -> torch.Tensor:
+        ctx.contributors, ctx.pixels = contributors, pixels
+        return _rows_backward(contributors, pixels, grad)
+
+    @staticmethod
+    def backward(ctx: Any, grad_out: torch.Tensor) -> tuple[torch.Tensor | None, None, None]:
+        if not ctx.needs_input_grad[0]:
+            return None, None, None
+        out = RowsComposite.apply(grad_out, ctx.contributors, ctx.pixels)  # type: ignore[no-untyped-call]
+        return out, None, None
+
+
+def composite_features(
+    contributors: Contributors, features: torch.Tensor, pixels: np.ndarray | None = None
+) -> torch.Tensor:
+    """(H*W, C) composite of (N, C) features (float32 or float64, CPU), or (P, C) at the
+    flat ``pixels`` only (int64, in range: the caller checks)."""
+    if pixels is None:
+        return SparseComposite.apply(features, contributors)  # type: ignore[no-any-return,no-untyped-call]
+    if numba_available():
+        return RowsComposite.apply(features, contributors, pixels)  # type: ignore[no-any-return,no-untyped-call]
+    return SparseComposite.apply(features, contributors.rows(pixels))  # type: ignore[no-any-return,no-untyped-call]

@@ -1,8 +1,11 @@
-"""Compiled row selection of a view's CSR weights (imports numba; imported lazily).
+"""Compiled kernels on chosen rows of a view's CSR weights (imports numba; imported lazily).
 
-:meth:`causalsplat.render.types.Contributors.rows` with numpy builds an index array as
-long as the selected weights and gathers through it; this copies each selected row's
-slice straight into the output, one pass, no temporaries.
+:func:`select_rows` is :meth:`causalsplat.render.types.Contributors.rows`: numpy builds an
+index array as long as the selected weights and gathers through it; this copies each
+selected row's slice straight into the output. :func:`rows_product` and
+:func:`rows_transposed_product` render features at chosen pixels, and scatter their
+gradient back, reading those rows in place: nothing is copied at all (the training's
+steps, see :func:`causalsplat.render.render_features` with ``pixels``).
 """
 
 from __future__ import annotations
@@ -44,4 +47,45 @@ def select_rows(
     return out_indptr, out_indices, out_weights
 
 
-__all__ = ["select_rows"]
+@jit()
+def rows_product(  # pragma: no cover - compiled
+    indptr: np.ndarray,
+    indices: np.ndarray,
+    weights: np.ndarray,
+    pixels: np.ndarray,
+    values: np.ndarray,
+    out: np.ndarray,
+) -> None:
+    """``out[i] = sum_k w_k values[g_k]`` over the CSR row ``pixels[i]`` (out zeroed)."""
+    channels = values.shape[1]
+    for i in range(pixels.shape[0]):
+        p = pixels[i]
+        for k in range(indptr[p], indptr[p + 1]):
+            g = indices[k]
+            w = weights[k]
+            for c in range(channels):
+                out[i, c] += w * values[g, c]
+
+
+@jit()
+def rows_transposed_product(  # pragma: no cover - compiled
+    indptr: np.ndarray,
+    indices: np.ndarray,
+    weights: np.ndarray,
+    pixels: np.ndarray,
+    grad: np.ndarray,
+    out: np.ndarray,
+) -> None:
+    """``out[g] += w * grad[i]`` for every weight ``w`` of Gaussian ``g`` in the CSR row
+    ``pixels[i]``: the transposed product of :func:`rows_product`."""
+    channels = grad.shape[1]
+    for i in range(pixels.shape[0]):
+        p = pixels[i]
+        for k in range(indptr[p], indptr[p + 1]):
+            g = indices[k]
+            w = weights[k]
+            for c in range(channels):
+                out[g, c] += w * grad[i, c]
+
+
+__all__ = ["rows_product", "rows_transposed_product", "select_rows"]

@@ -141,13 +141,19 @@ def ids_from_contributors(
 
 
 def render_features(
-    contributors: Contributors, features: torch.Tensor, *, as_image: bool = False
+    contributors: Contributors,
+    features: torch.Tensor,
+    *,
+    as_image: bool = False,
+    pixels: np.ndarray | None = None,
 ) -> torch.Tensor:
     """Composite per-Gaussian features through cached weights, differentiably.
 
     ``features`` is (N, C) float32 or float64 (CPU). Returns (H*W, C), or (H, W, C) with
-    ``as_image=True``. Autograd runs through a custom function (forward ``W @ f``,
-    backward ``W^T @ g``), so gradients reach ``features`` but not the weights.
+    ``as_image=True``, or with ``pixels`` (flat pixel indices) the (P, C) rows of those
+    pixels only, at the cost of their weights alone (nothing is copied where numba
+    imports). Autograd runs through a custom function (forward ``W @ f``, backward
+    ``W^T @ g``), so gradients reach ``features`` but not the weights.
     """
     from causalsplat.render._autograd import composite_features
 
@@ -155,5 +161,9 @@ def render_features(
         raise RenderError(
             f"features: expected shape ({contributors.n_gaussians}, C), got {tuple(features.shape)}"
         )
+    if pixels is not None:
+        if as_image:
+            raise RenderError("render_features: as_image and pixels exclude each other")
+        return composite_features(contributors, features, contributors._checked(pixels))
     out = composite_features(contributors, features)
     return out.reshape(contributors.height, contributors.width, -1) if as_image else out

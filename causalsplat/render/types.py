@@ -81,11 +81,7 @@ class Contributors:
         >>> r.indptr.tolist(), r.indices.tolist(), r.weights.tolist()
         ([0, 1, 3], [2, 1, 2], [1.0, 0.25, 0.5])
         """
-        pixels = np.asarray(pixels, dtype=np.int64)
-        if pixels.size and (pixels.min() < 0 or pixels.max() >= self.n_pixels):
-            from causalsplat.render.errors import RenderError
-
-            raise RenderError(f"pixels must be in [0, {self.n_pixels}), the view's pixels")
+        pixels = self._checked(pixels)
         from causalsplat.render._backend import numba_available
 
         if numba_available():
@@ -104,6 +100,46 @@ class Contributors:
             int(pixels.shape[0]), 1, self.n_gaussians, indptr, indices, weights, self.depths,
             self.key,
         )  # fmt: skip
+
+    def composite_rows(self, pixels: np.ndarray, values: np.ndarray) -> np.ndarray:
+        """(P, C) ``W[pixels] @ values`` for (N, C) ``values``, in their dtype: the render at
+        the flat ``pixels`` only, reading their weights in place where numba imports."""
+        pixels = self._checked(pixels)
+        values = np.ascontiguousarray(values)
+        from causalsplat.render._backend import numba_available
+
+        if not numba_available():
+            return np.asarray(self.rows(pixels).matrix(values.dtype) @ values)
+        from causalsplat.render._kernel_rows import rows_product
+
+        out = np.zeros((pixels.shape[0], values.shape[1]), dtype=values.dtype)
+        rows_product(self.indptr, self.indices, self.weights, pixels, values, out)
+        return out
+
+    def transposed_rows(self, pixels: np.ndarray, grad: np.ndarray) -> np.ndarray:
+        """(N, C) ``W[pixels]^T @ grad`` for (P, C) ``grad``: the gradient of
+        :meth:`composite_rows` with respect to the values."""
+        pixels = self._checked(pixels)
+        grad = np.ascontiguousarray(grad)
+        from causalsplat.render._backend import numba_available
+
+        if not numba_available():
+            return np.asarray(self.rows(pixels).matrix(grad.dtype).T @ grad)
+        from causalsplat.render._kernel_rows import rows_transposed_product
+
+        out = np.zeros((self.n_gaussians, grad.shape[1]), dtype=grad.dtype)
+        rows_transposed_product(self.indptr, self.indices, self.weights, pixels, grad, out)
+        return out
+
+    def _checked(self, pixels: np.ndarray) -> np.ndarray:
+        pixels = np.asarray(pixels, dtype=np.int64)
+        if pixels.ndim != 1 or (
+            pixels.size and (pixels.min() < 0 or pixels.max() >= self.n_pixels)
+        ):
+            from causalsplat.render.errors import RenderError
+
+            raise RenderError(f"pixels must be a 1-D array of flat indices in [0, {self.n_pixels})")
+        return pixels
 
     def alpha(self) -> np.ndarray:
         """(H, W) float64 accumulated opacity: the sum of the weights of each pixel."""

@@ -1,4 +1,4 @@
-"""The training step's parts: Adam against torch's, the sampled loss terms against the full ones."""
+"""The training step's parts: Adam and the loss gradient against torch, sampled terms."""
 
 from __future__ import annotations
 
@@ -8,36 +8,81 @@ import torch
 
 from causalsplat.field import FieldConfig, FieldConfigError
 from causalsplat.field.adam import Adam
-from causalsplat.field.train import _view_terms, mask_overlap
+from causalsplat.field.train import _view_terms, _ViewTerms, contrastive_loss_and_grad, mask_overlap
 from causalsplat.field.weights import view_masks
 from causalsplat.masks import MaskSet
 
 
 def test_adam_follows_torch_adam_over_many_steps() -> None:
-    gen = torch.Generator().manual_seed(0)
-    ours = torch.randn(300, 16, generator=gen, requires_grad=True)
-    theirs = ours.detach().clone().requires_grad_(True)
+    rng = np.random.default_rng(0)
+    ours = rng.standard_normal((300, 16)).astype(np.float32)
+    theirs = torch.tensor(ours.copy(), requires_grad=True)
     mine, ref = Adam(ours, lr=0.02), torch.optim.Adam([theirs], lr=0.02)
     for step in range(200):
-        grad = torch.randn(300, 16, generator=gen) * 10.0 ** (step % 5 - 2)  # 1e-2 .. 1e2
-        grad[step % 300] = 0.0
-        ours.grad, theirs.grad = grad.clone(), grad.clone()
-        mine.step()
+        grad = (rng.standard_normal((300, 16)) * 10.0 ** (step % 5 - 2)).astype(np.float32)
+        grad[step % 300] = 0.0  # 1e-2 .. 1e2, and a row with no gradient
+        theirs.grad = torch.from_numpy(grad.copy())
+        mine.step(grad)
         ref.step()
-        mine.zero_grad()
-        assert ours.grad is None
-    torch.testing.assert_close(ours, theirs, rtol=1e-5, atol=1e-6)
-    assert not torch.equal(ours, torch.zeros_like(ours))
+    np.testing.assert_allclose(ours, theirs.detach().numpy(), rtol=1e-5, atol=1e-6)
+    assert mine.steps == 200 and np.abs(ours).sum() > 0
 
 
 def test_adam_rejects_what_it_cannot_optimise() -> None:
-    with pytest.raises(FieldConfigError, match="float32 leaf"):
-        Adam(torch.zeros(3, dtype=torch.float64, requires_grad=True), lr=0.1)
+    with pytest.raises(FieldConfigError, match="float32 numpy array"):
+        Adam(np.zeros(3), lr=0.1)
     with pytest.raises(FieldConfigError, match="lr must be > 0"):
-        Adam(torch.zeros(3, requires_grad=True), lr=0.0)
-    opt = Adam(torch.zeros(3, requires_grad=True), lr=0.1)
-    opt.step()  # no gradient yet: nothing moves
-    assert opt.steps == 0
+        Adam(np.zeros(3, np.float32), lr=0.0)
+    frozen = np.zeros(3, np.float32)
+    frozen.flags.writeable = False
+    with pytest.raises(FieldConfigError, match="writeable"):
+        Adam(frozen, lr=0.1)
+    with pytest.raises(FieldConfigError, match=r"gradient of shape \(2,\)"):
+        Adam(np.zeros(3, np.float32), lr=0.1).step(np.zeros(2, np.float32))
+
+
+def _torch_loss(f: torch.Tensor, terms: _ViewTerms, keep: torch.Tensor, config: FieldConfig
+                ) -> torch.Tensor:  # fmt: skip
+    """The module docstring's loss in torch, with the kept negatives given."""
+    unit = f / f.norm(dim=1, keepdim=True).clamp_min(1e-8)
+    w = torch.from_numpy(terms.weights).to(f.dtype)
+    summed = w @ unit
+    length = summed.norm(dim=1)
+    positive = 1.0 - length / torch.from_numpy(terms.weight_sums).to(f.dtype).clamp_min(1e-12)
+    proto = summed / length.clamp_min(1e-12)[:, None]
+    sim = unit @ proto.T
+    hinge = torch.relu(sim - config.margin) * keep
+    negative = hinge.sum(dim=0) / keep.sum(dim=0).clamp_min(1).to(f.dtype)
+    return (positive + config.negative_weight * negative).mean()
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_loss_gradient_is_torch_autograd_of_the_same_loss(seed: int) -> None:
+    maskset, _ = _view(seed)
+    config = FieldConfig(min_mask_pixels=1, negative_weight=0.7, margin=0.1, hard_negative=0.3)
+    vm = view_masks(maskset, 0, config, np.random.default_rng(0))
+    terms = _view_terms(vm)
+    rng = np.random.default_rng(seed)
+    f = rng.standard_normal((vm.pixels.size, 5))
+    f[0] *= 1e-10  # a pixel below the norm clamp
+    f[1] = 0.0
+    loss, grad = contrastive_loss_and_grad(f, terms, config, np.random.default_rng(7))
+    # the kept negatives of that call, drawn again from the same generator
+    unit = f / np.maximum(np.linalg.norm(f, axis=1), 1e-8)[:, None]
+    summed = terms.weights @ unit
+    proto = summed / np.maximum(np.linalg.norm(summed, axis=1), 1e-12)[:, None]
+    sim = unit @ proto.T
+    u = np.random.default_rng(7).random(sim.shape, dtype=np.float32)
+    ratio = terms.n_pos / np.maximum(terms.negative.sum(axis=0), 1)
+    keep = terms.negative & ((u < ratio[None, :]) | (sim > config.hard_negative))
+    assert keep.any() and (~keep & terms.negative).any()
+    ft = torch.tensor(f, requires_grad=True)
+    ref = _torch_loss(ft, terms, torch.from_numpy(keep), config)
+    ref.backward()
+    assert loss == pytest.approx(float(ref.detach()), rel=1e-12)
+    assert ft.grad is not None
+    np.testing.assert_allclose(grad, ft.grad.numpy(), rtol=1e-9, atol=1e-12)
+    assert np.abs(grad).max() > 1e-3
 
 
 def _view(seed: int) -> tuple[MaskSet, np.ndarray]:
@@ -58,20 +103,20 @@ def test_sampled_terms_are_the_full_terms_on_the_sample(seed: int) -> None:
     vm = view_masks(maskset, 0, config, np.random.default_rng(0))
     full = _view_terms(vm)
     dense = vm.weights.toarray()[:, vm.pixels]
-    np.testing.assert_array_equal(full.weights.numpy(), dense)
+    np.testing.assert_array_equal(full.weights, dense)
     member = dense > 0
     overlap = (member.astype(int) @ member.T.astype(int)) > 0
     np.testing.assert_array_equal(mask_overlap(vm), overlap)
     blocked = np.array([[(member[:, p] & overlap[:, m]).any() for m in range(vm.n_masks)]
                         for p in range(vm.pixels.size)])  # fmt: skip
-    np.testing.assert_array_equal(full.negative.numpy(), ~blocked)
+    np.testing.assert_array_equal(full.negative, ~blocked)
     rng = np.random.default_rng(seed)
     sample = np.sort(rng.choice(vm.pixels.size, vm.pixels.size // 3, replace=False))
     part = _view_terms(vm, sample, mask_overlap(vm))
     present = member[:, sample].any(axis=1)
-    np.testing.assert_array_equal(part.pixels.numpy(), vm.pixels[sample])
-    np.testing.assert_array_equal(part.weights.numpy(), dense[present][:, sample])
-    np.testing.assert_array_equal(part.negative.numpy(), ~blocked[sample][:, present])
-    np.testing.assert_array_equal(part.n_pos.numpy(), member[present][:, sample].sum(axis=1))
-    np.testing.assert_allclose(part.weight_sums.numpy(), dense[present][:, sample].sum(axis=1),
+    np.testing.assert_array_equal(part.pixels, vm.pixels[sample])
+    np.testing.assert_array_equal(part.weights, dense[present][:, sample])
+    np.testing.assert_array_equal(part.negative, ~blocked[sample][:, present])
+    np.testing.assert_array_equal(part.n_pos, member[present][:, sample].sum(axis=1))
+    np.testing.assert_allclose(part.weight_sums, dense[present][:, sample].sum(axis=1),
                                rtol=1e-6)  # fmt: skip

@@ -79,5 +79,43 @@ def test_rows_render_the_chosen_pixels_and_their_gradient(
     for a, b in zip(*parts, strict=True):
         np.testing.assert_array_equal(a, b)
     assert contrib.rows(np.zeros(0, dtype=np.int64)).nnz == 0
-    with pytest.raises(RenderError, match=rf"pixels must be in \[0, {contrib.n_pixels}\)"):
+    with pytest.raises(RenderError, match=rf"flat indices in \[0, {contrib.n_pixels}\)"):
         contrib.rows(np.array([contrib.n_pixels]))
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+def test_render_at_pixels_matches_the_full_render_and_passes_gradcheck(
+    random_scene: Callable[..., GaussianScene],
+    camera: Camera,
+    monkeypatch: pytest.MonkeyPatch,
+    compiled: bool,
+) -> None:
+    from causalsplat.render import _autograd
+
+    monkeypatch.setattr(_autograd, "numba_available", lambda: compiled)
+    scene = random_scene(4)
+    contrib = build_contributors(scene, camera)
+    pixels = np.random.default_rng(1).choice(contrib.n_pixels, 30, replace=False)
+    for dtype in (torch.float32, torch.float64):
+        feats = torch.rand(scene.n, 3, dtype=dtype, requires_grad=True)
+        out = render_features(contrib, feats, pixels=pixels)
+        assert out.shape == (30, 3) and out.dtype == dtype
+        full = render_features(contrib, feats)[torch.from_numpy(pixels)]
+        torch.testing.assert_close(out, full)
+        (g_rows,) = torch.autograd.grad((out * out).sum(), feats)
+        (g_full,) = torch.autograd.grad((full * full).sum(), feats)
+        torch.testing.assert_close(g_rows, g_full)
+    small = random_scene(11, n=6, extent=0.5)
+    cam = Camera.look_at("tiny", [0, -3, 0], [0, 0, 0], [0, 0, 1], 8, 6, 40)
+    c = build_contributors(small, cam)
+    px = np.array([20, 3, 27, 28, 19])
+    assert c.rows(px).nnz > 5
+    f64 = torch.randn(small.n, 2, dtype=torch.float64, requires_grad=True)
+    assert torch.autograd.gradcheck(lambda f: render_features(c, f, pixels=px), (f64,))
+    assert torch.autograd.gradgradcheck(lambda f: render_features(c, f, pixels=px), (f64,))
+    with pytest.raises(
+        RenderError, match=r"pixels must be a 1-D array of flat indices in \[0, 48\)"
+    ):
+        render_features(c, f64, pixels=np.array([48]))
+    with pytest.raises(RenderError, match="exclude each other"):
+        render_features(c, f64, pixels=px, as_image=True)
