@@ -20,6 +20,7 @@ import scipy.sparse as sp
 
 from causalsplat.errors import InputFormatError
 from causalsplat.field.config import FieldConfig
+from causalsplat.field.mask_gaussians import mask_gaussian_weights
 from causalsplat.field.spill import (
     ContributorsCodec,
     RecomputedWeights,
@@ -241,7 +242,7 @@ def mask_evidence(
         feature_map = np.zeros((vm.n_pixels, active_feats.shape[1]))
         feature_map[vm.pixels] = contrib.composite_rows(vm.pixels, active_feats)
         feats.append(mask_features(feature_map, vm))
-        blocks.append(_mask_gaussian_weights(vm, contrib))
+        blocks.append(mask_gaussian_weights(vm, contrib))
         view_of.append(np.full(vm.n_masks, vm.view, dtype=np.int64))
         index_of.append(vm.mask_index)
         pixel_weight.append(np.asarray(vm.weights.sum(axis=1), dtype=np.float64).ravel())
@@ -262,17 +263,3 @@ def mask_evidence(
         features=np.concatenate(feats) if n_masks else np.zeros((0, field.dim), np.float32),
         gaussian_weight=full,
     )
-
-
-def _mask_gaussian_weights(vm: ViewMasks, contrib: Contributors) -> sp.csr_matrix:
-    """(M, N) float64 ``B @ W``: the blending weight of each Gaussian inside each mask."""
-    from causalsplat.render._backend import numba_available
-
-    if not numba_available():
-        return sp.csr_matrix(vm.weights.astype(np.float64) @ contrib.matrix(np.float64))
-    from causalsplat.field._kernel_evidence import mask_times_weights
-
-    b = vm.weights
-    parts = mask_times_weights(b.indptr, b.indices, b.data, contrib.indptr, contrib.indices,
-                               contrib.weights, contrib.n_gaussians)  # fmt: skip
-    return sp.csr_matrix(parts[::-1], shape=(vm.n_masks, contrib.n_gaussians))
