@@ -61,7 +61,7 @@ def scenes_in(column: Any, scene_ids: Sequence[str] | None, name: str = "scope")
         return sa.true()
     if not scene_ids:
         return sa.false()
-    param = sa.bindparam(name, sorted(scene_ids), expanding=True, literal_execute=True)
+    param: Any = sa.bindparam(name, sorted(scene_ids), expanding=True, literal_execute=True)
     cond: Cond = column.in_(param)
     return cond
 
@@ -265,6 +265,8 @@ class SqlManySteps:
         s, a = E.alias("s"), E.alias("a")
         vp = step.viewpoint
         joined = s.join(a, a.c.scene_id == s.c.scene_id)
+        eye: tuple[Any, Any]
+        target: tuple[Any, Any]
         if vp is None:
             c = self.centre()
             eye, target = (c.c.x, c.c.y), (a.c.cx, a.c.cy)
