@@ -138,54 +138,22 @@ class SqlManySteps:
             self._support = sa.union(down, up).cte("support")
         return self._support
 
-    def resting_on(self, lower: Iterable[Pair]) -> Any:
-        """``(scene_id, id)`` resting directly on one of ``lower``, possibly repeated."""
-        lower = list(lower)
-        down = sa.select(REL.c.scene_id, REL.c.src.label("id")).where(
+    def support_edges(self, scene_ids: Iterable[str]) -> Any:
+        """``(scene_id, upper, lower, category of upper)`` for every support edge of the
+        given scenes (``upper`` rests on ``lower``; each edge once)."""
+        chosen = sorted(scene_ids)
+        down = sa.select(REL.c.scene_id, REL.c.src.label("upper"), REL.c.dst.label("lower")).where(
             REL.c.type == RelationType.SUPPORTED_BY.value,
-            pairs_in(REL.c.scene_id, REL.c.dst, lower, "lower_down"),
-        )
-        up = sa.select(REL.c.scene_id, REL.c.dst).where(
-            REL.c.type == RelationType.SUPPORTS.value,
-            pairs_in(REL.c.scene_id, REL.c.src, lower, "lower_up"),
-        )
-        return sa.union_all(down, up)
-
-    def held_outside(self, scene: Any, upper: Any, known: Iterable[Pair]) -> Cond:
-        """``(scene, upper)`` rests on something not in ``known``."""
-        known = list(known)
-        r = REL.alias("held")
-        down = sa.exists(
-            sa.select(r.c.src).where(
-                r.c.scene_id == scene,
-                r.c.src == upper,
-                r.c.type == RelationType.SUPPORTED_BY.value,
-                ~pairs_in(r.c.scene_id, r.c.dst, known, "known_down"),
-            )
-        )
-        r2 = REL.alias("held_up")
-        up = sa.exists(
-            sa.select(r2.c.dst).where(
-                r2.c.scene_id == scene,
-                r2.c.dst == upper,
-                r2.c.type == RelationType.SUPPORTS.value,
-                ~pairs_in(r2.c.scene_id, r2.c.src, known, "known_up"),
-            )
-        )
-        return sa.or_(down, up)
-
-    def supporter_edges(self, uppers: Iterable[Pair]) -> Any:
-        """``(scene_id, upper, lower)`` for every support edge from one of ``uppers``."""
-        uppers = list(uppers)
-        down = sa.select(REL.c.scene_id, REL.c.src, REL.c.dst).where(
-            REL.c.type == RelationType.SUPPORTED_BY.value,
-            pairs_in(REL.c.scene_id, REL.c.src, uppers, "uppers_down"),
+            scenes_in(REL.c.scene_id, chosen, "fall_down"),
         )
         up = sa.select(REL.c.scene_id, REL.c.dst, REL.c.src).where(
             REL.c.type == RelationType.SUPPORTS.value,
-            pairs_in(REL.c.scene_id, REL.c.dst, uppers, "uppers_up"),
+            scenes_in(REL.c.scene_id, chosen, "fall_up"),
         )
-        return sa.union(down, up)
+        edges = sa.union(down, up).subquery("edges")
+        return sa.select(edges.c.scene_id, edges.c.upper, edges.c.lower, E.c.category).join(
+            E, sa.and_(E.c.scene_id == edges.c.scene_id, E.c.id == edges.c.upper)
+        )
 
     def members(self, scene: Any, column: Any, step: int, cte: Any) -> Cond:
         """``(scene, column)`` is in the input set (a scope test for a whole-scene input)."""

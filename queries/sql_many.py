@@ -5,9 +5,11 @@ The steps compile as in :mod:`queries.sql_executor`, but every CTE carries
 once for all selected scenes and the final ``SELECT`` returns ``(step, scene_id, id)``
 rows, split per scene in Python; ``count`` and ``exists`` are grouped per scene with the
 selected scenes as the outer side, so a scene with nothing to count still answers 0.
-``fall_if_removed`` runs its fixpoint one statement per round for all scenes together (a
-scene's round ``r`` only looks at that scene's rows, so each scene's rounds, fallen
-entities and support paths are exactly those of a run on that scene alone). The answers
+``fall_if_removed`` reads the support edges of the scenes with something removed in one
+statement and runs the fixpoint of each scene in Python with the reference rule (one
+statement per round, as the per-scene executor does, costs a round trip with ever longer
+id lists per round: seconds over 1,500 scans); each scene's rounds, fallen entities and
+support paths are exactly those of a run on that scene alone. The answers
 are equal to :class:`~queries.sql_executor.SqlExecutor`'s on each scene.
 """
 
@@ -20,12 +22,17 @@ from typing import Any
 import sqlalchemy as sa
 from sqlalchemy.engine import Connection, Engine
 
-from queries._sql_many_steps import Pair, SqlManySteps, pairs_in
-from queries._sql_steps import E
+from queries._sql_many_steps import Pair, SqlManySteps
 from queries.errors import QueryExecutionError
 from queries.model import GraphQuery, Op, Step
 from queries.result import QueryResult, StepValue
-from queries.semantics import DEFAULT_CONFIG, QueryConfig, SupportPath, support_paths
+from queries.semantics import (
+    DEFAULT_CONFIG,
+    QueryConfig,
+    SupportPath,
+    fall_rounds,
+    support_paths,
+)
 from queries.sql_executor import raw_rows
 
 EXECUTOR_NAME = "sql"
@@ -118,42 +125,33 @@ class _ManyRun:
         return src[0][1]
 
     def _fall(self, i: int, removed_cte: Any) -> set[Pair]:
-        """The fixpoint of every scene at once, one statement per round (see
-        :meth:`queries.sql_executor._SqlRun._fall` for the rule of a round)."""
+        """The fixpoint of every scene with something removed; records the support paths.
+
+        Two statements whatever the number of scenes and rounds: the removed entities, then
+        every support edge ``(scene, upper, lower)`` of the scenes they are in with the
+        upper entity's category. The rounds are then worked out per scene by the reference
+        rule (:func:`queries.semantics.fall_rounds`), which gives each entity the round the
+        per-scene executor's statements find it in (see :mod:`queries.sql_executor`).
+        """
         removed_rows = sa.select(removed_cte.c.scene_id, removed_cte.c.id)
-        removed: set[Pair] = {(s, x) for s, x in raw_rows(self.conn, removed_rows)}
-        structural = [cat for cat in self.c.categories() if self.config.is_structural(cat)]
-        rounds: dict[Pair, int] = {}
-        known, frontier = set(removed), set(removed)
-        current = 0
-        while frontier:
-            current += 1
-            cand = self.c.resting_on(frontier).subquery("cand")
-            query = (
-                sa.select(cand.c.scene_id, cand.c.id)
-                .join(E, sa.and_(E.c.scene_id == cand.c.scene_id, E.c.id == cand.c.id))
-                .where(~pairs_in(cand.c.scene_id, cand.c.id, known, "known"))
-                .where(E.c.category.not_in(structural))
-                .where(~self.c.held_outside(cand.c.scene_id, cand.c.id, known))
-            )
-            frontier = {(s, x) for s, x in raw_rows(self.conn, query)}
-            rounds.update((p, current) for p in frontier)
-            known |= frontier
-        if rounds:
-            supporters: dict[str, dict[int, list[int]]] = defaultdict(lambda: defaultdict(list))
-            for sid, upper, lower in raw_rows(self.conn, self.c.supporter_edges(rounds)):
-                supporters[sid][upper].append(lower)
-            by_scene_removed: dict[str, set[int]] = defaultdict(set)
-            for sid, x in removed:
-                by_scene_removed[sid].add(x)
-            by_scene_rounds: dict[str, dict[int, int]] = defaultdict(dict)
-            for (sid, x), r in rounds.items():
-                by_scene_rounds[sid][x] = r
-            for sid, scene_rounds in by_scene_rounds.items():
-                self.paths[sid].extend(
-                    support_paths(i, by_scene_removed[sid], scene_rounds, supporters[sid])
-                )
-        return set(rounds)
+        removed: dict[str, set[int]] = defaultdict(set)
+        for sid, x in raw_rows(self.conn, removed_rows):
+            removed[sid].add(x)
+        if not removed:
+            return set()
+        supporters: dict[str, dict[int, list[int]]] = defaultdict(lambda: defaultdict(list))
+        structural: dict[str, set[int]] = defaultdict(set)
+        for sid, upper, lower, category in raw_rows(self.conn, self.c.support_edges(removed)):
+            supporters[sid][upper].append(lower)
+            if self.config.is_structural(category):
+                structural[sid].add(upper)
+        fallen: set[Pair] = set()
+        for sid, gone in removed.items():
+            rounds = fall_rounds(gone, supporters[sid], structural[sid])
+            if rounds:
+                self.paths[sid].extend(support_paths(i, gone, rounds, supporters[sid]))
+                fallen.update((sid, x) for x in rounds)
+        return fallen
 
     def _fetch(self, program: GraphQuery) -> dict[str, tuple[StepValue, ...]]:
         """Every step's value per scene: one statement for the steps that are not the whole
