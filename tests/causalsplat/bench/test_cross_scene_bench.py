@@ -3,6 +3,8 @@ the per-scene loop give equal results for every scan, and the report says so."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
 from causalsplat.bench.cross_scene import PROGRAMS, _markdown, measure
@@ -19,3 +21,16 @@ def test_twenty_scans_agree() -> None:
     assert any(r["answered"] > 0 for r in rows)
     text = _markdown(data)
     assert "Agreement: 0 scene results differ" in text
+
+
+def test_registered_and_skips_cleanly_without_the_data(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from causalsplat.bench import cross_scene, run_benchmarks
+
+    monkeypatch.setattr(cross_scene, "DATA", tmp_path / "absent")
+    report = tmp_path / "benchmarks.md"
+    (only,) = run_benchmarks(("cross-scene",), quick=True, report_path=report)
+    assert only.name == "cross-scene" and only.markdown.startswith("Skipped:")
+    text = report.read_text(encoding="utf-8")
+    assert "<!-- bench:cross-scene:start -->" in text and "<!-- bench:cross-scene:end -->" in text
