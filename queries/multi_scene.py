@@ -58,10 +58,17 @@ def select_scene_ids(store: GraphStore, scenes: SceneSelection = None) -> tuple[
     Raises :class:`graph_store.SceneNotFound` when a glob matches no stored scene or a
     listed id is not stored. ``None`` on an empty store selects nothing (no error).
     """
+    return _select(_stored_ids(store), scenes, store.url)
+
+
+def _stored_ids(store: GraphStore) -> list[str]:
     from graph_store import models as m
 
     with store.engine.connect() as conn:
-        stored = list(conn.execute(sa.select(m.scenes.c.id).order_by(m.scenes.c.id)).scalars())
+        return list(conn.execute(sa.select(m.scenes.c.id).order_by(m.scenes.c.id)).scalars())
+
+
+def _select(stored: list[str], scenes: SceneSelection, url: str) -> tuple[str, ...]:
     if scenes is None:
         return tuple(stored)
     if isinstance(scenes, str) and is_glob(scenes):
@@ -73,7 +80,7 @@ def select_scene_ids(store: GraphStore, scenes: SceneSelection = None) -> tuple[
     known = set(stored)
     for sid in wanted:
         if sid not in known:
-            raise SceneNotFound(f"no scene {sid!r} in the store at {store.url}")
+            raise SceneNotFound(f"no scene {sid!r} in the store at {url}")
     return tuple(sorted(set(wanted)))
 
 
@@ -164,12 +171,15 @@ def run_program_all(
         raise QueryExecutionError(
             f"unknown executor {executor!r}; expected one of: networkx, sql, sparql"
         )
-    ids = select_scene_ids(store, scenes)
+    stored = _stored_ids(store)
+    ids = _select(stored, scenes, store.url)
     by_scene: dict[str, QueryResult]
     if executor == "sql":
         from queries.sql_many import run_sql_many
 
-        by_scene = run_sql_many(store.engine, ids, query, all_scenes=scenes is None, config=config)
+        # a selection of every stored scene needs no scene filter in the statement
+        every = len(ids) == len(stored)
+        by_scene = run_sql_many(store.engine, ids, query, all_scenes=every, config=config)
     elif executor == "sparql":
         by_scene = _sparql_loop(store, ids, query, config, sparql_backend)
     else:

@@ -161,3 +161,20 @@ def test_empty_store_answers_nothing(store: GraphStore) -> None:
     for executor in ("sql", "sparql", "networkx"):
         got = run_program_all(store, COUNTERFACTUAL, executor=executor)
         assert len(got) == 0 and got.answered() == ()
+
+
+def test_result_collection_is_a_sorted_mapping() -> None:
+    program = GraphQuery.parse(COUNTERFACTUAL)
+    results = {
+        sid: NetworkxExecutor(_support_scene(sid, cup)).run(program)
+        for sid, cup in (("a", True), ("b", False))
+    }
+    many = MultiSceneResult(program, (results["a"], results["b"]), "networkx")
+    assert dict(many) == results and many.answers() == {"a": (3, 4), "b": ()}
+    assert many == MultiSceneResult(program, (results["a"], results["b"]), "sql")
+    with pytest.raises(KeyError):
+        many["c"]
+    with pytest.raises(ValueError, match="sorted by scene id"):
+        MultiSceneResult(program, (results["b"], results["a"]), "networkx")
+    with pytest.raises(ValueError, match="one per scene"):
+        MultiSceneResult(program, (results["a"], results["a"]), "networkx")
