@@ -44,7 +44,7 @@ if TYPE_CHECKING:
     from causalsplat.export import PlyExport
     from causalsplat.reason import Answer, Reasoner, SceneContext
     from graph_store.rdf import RdfView, SparqlResult
-    from queries import GraphQuery, QueryResult
+    from queries import GraphQuery, MultiSceneResult, QueryResult
 
 DEFAULT_URL = "sqlite:///causalsplat.db"
 RdfFormat = Literal["turtle", "ntriples", "jsonld"]
@@ -96,6 +96,14 @@ class Store:
     def scenes(self) -> list[SceneSummary]:
         """Summaries of all stored scenes, ordered by id."""
         return self.graph_store.list_scenes()
+
+    def scene_ids(self, scenes: str | Sequence[str] | None = None) -> tuple[str, ...]:
+        """The stored scene ids ``scenes`` selects, sorted: all (``None``), those matching
+        a glob (``"scene00*"``) or the ids listed. Raises ``SceneNotFound`` when a glob
+        matches nothing or a listed id is not stored."""
+        from queries import select_scene_ids
+
+        return select_scene_ids(self.graph_store, scenes)
 
     def scene(self, scene_id: str) -> Scene:
         """A handle on a stored scene; raises ``SceneNotFound``."""
@@ -258,6 +266,50 @@ class Store:
                 graphs, backend=backend, evidence=with_evidence
             )
         return view.query(query, bindings=bindings, limit=limit, timeout_s=timeout_s)
+
+    # -- questions across scenes -------------------------------------------------------
+
+    def query_all(
+        self,
+        program: GraphQuery | str | bytes | dict[str, Any],
+        *,
+        scenes: str | Sequence[str] | None = None,
+        executor: str = "sql",
+    ) -> MultiSceneResult:
+        """Run a structured program on every selected scene (all, a glob or a list).
+
+        Each scene's result is the one :meth:`Scene.run` gives; ``sql`` answers all scenes
+        with one statement, ``sparql`` runs on one dataset holding them all, ``networkx``
+        scene after scene. The result maps scene ids to results in id order;
+        ``.answered()`` keeps the scenes with a non-empty answer.
+        """
+        from queries import run_program_all
+
+        return run_program_all(self.graph_store, program, scenes=scenes, executor=executor)
+
+    def ask_all(
+        self,
+        text: str,
+        *,
+        scenes: str | Sequence[str] | None = None,
+        reasoner: str | Reasoner = "offline",
+        **options: Any,
+    ) -> dict[str, Answer]:
+        """Answer one instruction on every selected scene: scene id -> :class:`Answer`,
+        in id order.
+
+        Grounding depends on each scene's categories, so each scene is answered on its
+        own, by one reasoner built once (the same answers as :meth:`Scene.ask`, less the
+        per-Gaussian masks, which are not read). Empty answers are kept; filter on
+        ``answer.entity_ids`` / ``answer.value``.
+        """
+        from causalsplat.reason import SceneContext, make_reasoner
+
+        ids = self.scene_ids(scenes)
+        backend = make_reasoner(reasoner, **options)
+        return {
+            sid: backend.answer(text, SceneContext(self.graph_store.load_scene(sid))) for sid in ids
+        }
 
     def _graphs(self, scene_ids: Sequence[str] | None) -> list[SceneGraph]:
         ids: Iterable[str]

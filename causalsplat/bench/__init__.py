@@ -1,6 +1,7 @@
 """Benchmarks (``causalsplat bench`` / ``make bench``), written to ``docs/benchmarks.md``.
 
-Each benchmark module in this package exposes ``NAME`` (a short id) and
+Each benchmark module in this package exposes ``NAME`` (a short id; a ``-`` in it is a
+``_`` in the module's name) and
 ``run(*, quick: bool = False) -> BenchReport``. ``run_benchmarks`` runs the selected
 ones and replaces each one's section of the report between the markers
 ``<!-- bench:NAME:start -->`` and ``<!-- bench:NAME:end -->``, so sections produced by
@@ -22,6 +23,7 @@ from typing import Any
 #: (its optional dependencies missing) is reported as skipped.
 BENCHMARKS: tuple[str, ...] = (
     "store", "queries", "render", "edges", "build", "scale", "batch", "reasoning",
+    "cross-scene",
 )  # fmt: skip
 
 
@@ -80,7 +82,7 @@ def run_benchmarks(
         )
     reports = []
     for name in selected:
-        module = importlib.import_module(f"causalsplat.bench.{name}")
+        module = importlib.import_module(f"causalsplat.bench.{name.replace('-', '_')}")
         report: BenchReport = module.run(quick=quick)
         reports.append(report)
         if report_path is not None:

@@ -9,6 +9,7 @@ from typing import Any
 import click
 
 from causalsplat.cli._app import cli, db_option, echo_json, fail, json_option
+from causalsplat.cli._scene_select import scene_choice, scene_options
 
 
 def _read_program(path: str) -> Any:
@@ -26,25 +27,48 @@ def _read_program(path: str) -> Any:
 
 def _entities(graph_store: Any, scene_id: str, ids: tuple[int, ...]) -> list[dict[str, Any]]:
     """``id``, ``external_id`` and ``category`` of the answer's entities, in id order."""
+    return _entities_of(graph_store, {scene_id: ids}).get(scene_id, [])
+
+
+def _entities_of(
+    graph_store: Any, answers: dict[str, tuple[int, ...]]
+) -> dict[str, list[dict[str, Any]]]:
+    """The answer entities of several scenes (scene id -> ids), one query per 500 scenes."""
     import sqlalchemy as sa
 
-    from graph_store.models import entities
+    from graph_store.models import entities as e
 
-    if not ids:
-        return []
-    query = (
-        sa.select(entities.c.id, entities.c.external_id, entities.c.category)
-        .where(entities.c.scene_id == scene_id, entities.c.id.in_(ids))
-        .order_by(entities.c.id)
-    )
+    wanted = {sid: set(ids) for sid, ids in answers.items() if ids}
+    out: dict[str, list[dict[str, Any]]] = {sid: [] for sid in answers}
+    chunks = [sorted(wanted)[i : i + 500] for i in range(0, len(wanted), 500)]
     with graph_store.engine.connect() as conn:
-        rows = conn.execute(query).all()
-    return [{"id": r.id, "external_id": r.external_id, "category": r.category} for r in rows]
+        for chunk in chunks:
+            query = (
+                sa.select(e.c.scene_id, e.c.id, e.c.external_id, e.c.category)
+                .where(e.c.scene_id.in_(chunk))
+                .order_by(e.c.scene_id, e.c.id)
+            )
+            for r in conn.execute(query):
+                if r.id in wanted[r.scene_id]:
+                    doc = {"id": r.id, "external_id": r.external_id, "category": r.category}
+                    out[r.scene_id].append(doc)
+    return out
+
+
+def _describe_answer(answer: Any, ents: list[dict[str, Any]]) -> list[str]:
+    """The human lines of one answer (yes/no, a count, or the entities)."""
+    if isinstance(answer, bool):
+        return ["yes" if answer else "no"]
+    if isinstance(answer, int):
+        return [str(answer)]
+    lines = [f"{len(ents)} entit{'y' if len(ents) == 1 else 'ies'}"]
+    lines += [f"  {e['id']:>6}  {e['category']:<24} ext={e['external_id']}" for e in ents]
+    return lines
 
 
 @cli.command("query")
 @click.argument("program", type=click.Path(dir_okay=False, allow_dash=True))
-@click.option("--scene", "scene_id", required=True, help="Id of the stored scene to query.")
+@scene_options
 @click.option(
     "--executor",
     type=click.Choice(["networkx", "sql", "sparql"]),
@@ -56,18 +80,34 @@ def _entities(graph_store: Any, scene_id: str, ids: tuple[int, ...]) -> list[dic
 @db_option
 @json_option
 def query(
-    program: str, scene_id: str, executor: str, explain: bool, db_url: str, as_json: bool
+    program: str,
+    scene_id: str | None,
+    scenes_glob: str | None,
+    all_scenes: bool,
+    executor: str,
+    explain: bool,
+    db_url: str,
+    as_json: bool,
 ) -> None:
     """Run a structured graph query (PROGRAM: a JSON file, or the text form; - for stdin).
 
     The answer is a set of entities, a count or a yes/no. --explain shows the text form of
     the program with the size of every step's result (and why each entity falls, for
     counterfactual programs).
+
+    With --all-scenes or --scenes GLOB the program runs on every selected scene (the sql
+    executor answers them all with one statement); the output lists the scenes with a
+    non-empty answer and a count line, --json every scene's result.
     """
     from causalsplat.api import open_store
     from queries import run_program
 
+    choice = scene_choice(scene_id, scenes_glob, all_scenes)
     parsed = _read_program(program)
+    if choice.many:
+        _query_many(parsed, choice.selection, executor, explain, db_url, as_json)
+        return
+    assert scene_id is not None
     with open_store(db_url, create=False) as store:
         result = run_program(store.graph_store, scene_id, parsed, executor=executor)
         answer = result.answer
@@ -81,11 +121,34 @@ def query(
         return
     if explain:
         click.echo(result.explain())
-    if isinstance(answer, bool):
-        click.echo("yes" if answer else "no")
-    elif isinstance(answer, int):
-        click.echo(str(answer))
-    else:
-        click.echo(f"{len(ents)} entit{'y' if len(ents) == 1 else 'ies'}")
-        for e in ents:
-            click.echo(f"  {e['id']:>6}  {e['category']:<24} ext={e['external_id']}")
+    for line in _describe_answer(answer, ents):
+        click.echo(line)
+
+
+def _query_many(
+    program: Any, selection: str | None, executor: str, explain: bool, db_url: str, as_json: bool
+) -> None:
+    """``query`` over many scenes: every result with --json, else the answered ones."""
+    from causalsplat.api import open_store
+
+    with open_store(db_url, create=False) as store:
+        results = store.query_all(program, scenes=selection, executor=executor)
+        shown = results.results if as_json else results.answered()
+        sets = {r.scene_id: r.answer for r in shown if isinstance(r.answer, tuple)}
+        ents = _entities_of(store.graph_store, sets)
+    if as_json:
+        document = results.to_dict()
+        for doc in document["results"]:
+            doc["entities"] = ents.get(doc["scene_id"], [])
+            if explain:
+                doc["explain"] = results[doc["scene_id"]].explain()
+        echo_json(document)
+        return
+    for r in shown:
+        lines = _describe_answer(r.answer, ents.get(r.scene_id, []))
+        click.echo(f"{r.scene_id}: {lines[0]}")
+        for line in lines[1:]:
+            click.echo(line)
+        if explain:
+            click.echo(r.explain())
+    click.echo(f"{len(shown)} of {len(results)} scenes answered")

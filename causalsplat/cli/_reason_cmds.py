@@ -8,6 +8,7 @@ from typing import Any
 import click
 
 from causalsplat.cli._app import cli, db_option, echo_json, json_option
+from causalsplat.cli._scene_select import scene_choice, scene_options
 
 _REASONERS = ("offline", "vlm")
 
@@ -39,9 +40,12 @@ def _options(
     return {k: v for k, v in out.items() if v is not None}
 
 
+def _scene_option(func: Any) -> Any:
+    return click.option("--scene", "scene_id", required=True, help="Id of the stored scene.")(func)
+
+
 def _reasoner_options(func: Any) -> Any:
     options = [
-        click.option("--scene", "scene_id", required=True, help="Id of the stored scene."),
         click.option(
             "--reasoner",
             type=click.Choice(_REASONERS),
@@ -84,10 +88,13 @@ def _reasoner_options(func: Any) -> Any:
 
 @cli.command("ask")
 @click.argument("text")
+@scene_options
 @_reasoner_options
 def ask(
     text: str,
-    scene_id: str,
+    scene_id: str | None,
+    scenes_glob: str | None,
+    all_scenes: bool,
     reasoner: str,
     embeddings: bool | None,
     base_url: str | None,
@@ -103,11 +110,20 @@ def ask(
 
     Prints the answer's entities and an explanation; --json prints
     {"query", "program", "answer", "entities", "explanation", "reasoner", ...}.
+
+    With --all-scenes or --scenes GLOB the instruction is answered on every selected scene
+    (each on its own: grounding depends on the scene's categories); the output lists the
+    scenes with a non-empty answer and a count line, --json every scene's answer.
     """
     from causalsplat.api import open_store
     from causalsplat.reason import entity_documents
 
+    choice = scene_choice(scene_id, scenes_glob, all_scenes)
     options = _options(reasoner, embeddings, base_url, model, timeout, max_tokens, record, replay)
+    if choice.many:
+        _ask_many(text, choice.selection, reasoner, options, db_url, as_json)
+        return
+    assert scene_id is not None
     with open_store(db_url, create=False) as store:
         scene = store.scene(scene_id)
         answer = scene.ask(text, reasoner=reasoner, **options)
@@ -135,6 +151,42 @@ def ask(
     click.echo(answer.explanation)
 
 
+def _ask_many(
+    text: str,
+    selection: str | None,
+    reasoner: str,
+    options: dict[str, Any],
+    db_url: str,
+    as_json: bool,
+) -> None:
+    """``ask`` over many scenes: every answer with --json, else the non-empty ones."""
+    from causalsplat.api import open_store
+
+    with open_store(db_url, create=False) as store:
+        answers = store.ask_all(text, scenes=selection, reasoner=reasoner, **options)
+    answered = [a for a in answers.values() if a.entity_ids or a.value]
+    if as_json:
+        results = []
+        for a in answers.values():
+            ents = [
+                {"id": i, "external_id": x, "category": c}
+                for i, x, c in zip(a.entity_ids, a.external_ids, a.categories, strict=True)
+            ]
+            results.append(a.to_dict(entities=ents))
+        echo_json(
+            {"query": text, "scenes": len(answers), "answered": len(answered), "results": results}
+        )
+        return
+    for a in answered:
+        head = f"{a.scene_id}: {a.query_type}"
+        if a.value is not None:
+            head += f", answer {a.value}"
+        click.echo(f"{head}, {len(a.entity_ids)} entit{'y' if len(a.entity_ids) == 1 else 'ies'}")
+        for i, x, c in zip(a.entity_ids, a.external_ids, a.categories, strict=True):
+            click.echo(f"  {i:>5}  {c:<24} ext={x}")
+    click.echo(f"{len(answered)} of {len(answers)} scenes answered")
+
+
 @cli.command("eval")
 @click.argument("queries_file", type=click.Path(exists=True, dir_okay=False, path_type=Path))
 @click.option(
@@ -143,6 +195,7 @@ def ask(
     help="GT instance id per Gaussian (.npy, e.g. a scene folder's gt/gt_labels.npy): score "
     "a built scene against its ground truth; targets are then GT instance ids.",
 )
+@_scene_option
 @_reasoner_options
 def evaluate(
     queries_file: Path,

@@ -64,12 +64,25 @@ def ingest_objects(
 
 
 @cli.command("scenes")
+@click.option(
+    "--scenes",
+    "--scene",
+    "pattern",
+    metavar="GLOB",
+    help="Only the scenes whose id matches the glob (e.g. 'scene00*'); an error when none does.",
+)
+@click.option("--all-scenes", is_flag=True, help="Every stored scene (the default).")
 @db_option
 @json_option
-def scenes(db_url: str, as_json: bool) -> None:
-    """List the stored scenes."""
+def scenes(pattern: str | None, all_scenes: bool, db_url: str, as_json: bool) -> None:
+    """List the stored scenes (all, or those whose id matches --scenes GLOB)."""
+    if pattern is not None and all_scenes:
+        fail("--scenes and --all-scenes are mutually exclusive: give one")
     with _open(db_url, create=False) as store:
         rows = store.scenes()
+        if pattern is not None:
+            chosen = set(store.scene_ids(pattern))
+            rows = [s for s in rows if s.scene_id in chosen]
     if as_json:
         echo_json(
             [
@@ -250,6 +263,15 @@ def _parse_binding(text: str) -> tuple[str, Any]:
 @click.option("--file", "query_file", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--scene", "scene_ids", multiple=True, help="Scene id (repeatable; default: all).")
 @click.option(
+    "--scenes", "pattern", metavar="GLOB",
+    help="The scenes whose id matches the glob (e.g. 'scene00*'), in one dataset.",
+)  # fmt: skip
+@click.option(
+    "--all-scenes", is_flag=True,
+    help="Every stored scene, in one dataset (the default): group rows per scene with"
+    " ?scene bot:containsElement ?e.",
+)  # fmt: skip
+@click.option(
     "--bind", "binds", multiple=True, metavar="NAME=VALUE",
     help="Bind a variable to a literal (numbers are typed as numbers).",
 )  # fmt: skip
@@ -271,6 +293,8 @@ def sparql(
     query: str | None,
     query_file: Path | None,
     scene_ids: tuple[str, ...],
+    pattern: str | None,
+    all_scenes: bool,
     binds: tuple[str, ...],
     limit: int,
     timeout: float,
@@ -285,9 +309,17 @@ def sparql(
     geo:, rdf:, rdfs:, xsd: and owl: are predeclared. Updates, LOAD, SERVICE and FROM
     are refused. --json writes W3C SPARQL 1.1 Query Results JSON; CONSTRUCT and DESCRIBE
     write RDF (Turtle unless --format says).
+
+    The query runs once over one dataset holding the chosen scenes (--scene, repeatable;
+    --scenes GLOB; --all-scenes, the default): bind ?scene bot:containsElement ?e to
+    tell the scenes apart.
     """
     if (query is None) == (query_file is None):
         fail("give the query text or --file PATH (exactly one)")
+    given = [n for n, on in (("--scene", scene_ids), ("--scenes", pattern), ("--all-scenes",
+             all_scenes)) if on]  # fmt: skip
+    if len(given) > 1:
+        fail(f"{' and '.join(given)} are mutually exclusive: give one")
     fmt = {"nt": "ntriples"}.get(fmt or "", fmt)
     if as_json and fmt not in (None, "json", "jsonld"):
         fail(f"--json and --format {fmt} ask for two formats: give one")
@@ -300,6 +332,8 @@ def sparql(
         ids = list(scene_ids) or None
         for sid in ids or ():
             store.scene(sid)
+        if pattern is not None:
+            ids = list(store.scene_ids(pattern))
         result = store.sparql(
             text, scene_ids=ids, bindings=bindings, limit=limit, timeout_s=timeout, backend=backend
         )
