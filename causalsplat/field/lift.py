@@ -42,6 +42,9 @@ VIEW_STORAGES: tuple[str, ...] = ("auto", "memory", "disk", "recompute")
 #: Share of the budget of :func:`prepare_views` that the blending weights may keep
 #: resident; the weighted masks get the rest.
 _WEIGHTS_SHARE = 0.8
+#: Share of that budget that the views' mask x blending-weight products may keep for
+#: :func:`mask_evidence` (past it, it computes them again).
+_MASK_GAUSSIANS_SHARE = 0.125
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -61,9 +64,12 @@ class LiftedViews:
             masks, all views.
         counts: how many views' weights stayed resident, went to disk, or are rebuilt
             at each use.
+        mask_gaussians: per view, its (M, N_active) ``B @ W``
+            (:func:`~causalsplat.field.mask_gaussians.mask_gaussian_weights`) where it
+            was kept (within ``_MASK_GAUSSIANS_SHARE`` of the budget), else ``None``.
 
-    The last two are summed while the views are rasterized, so no pass reads the views
-    again for them.
+    The uplift and supervision are summed while the views are rasterized, so no pass
+    reads the views again for them; the kept products spare :func:`mask_evidence` one.
     """
 
     n_gaussians: int
@@ -73,6 +79,7 @@ class LiftedViews:
     uplift: np.ndarray | None = None
     supervision: np.ndarray | None = None
     counts: dict[str, int] | None = None
+    mask_gaussians: tuple[sp.csr_matrix | None, ...] = ()
 
     @property
     def spilled_bytes(self) -> int:
@@ -144,15 +151,25 @@ def prepare_views(
                 f"view {ms.view!r}: masks are {ms.width}x{ms.height} pixels, its camera "
                 f"{cam.width}x{cam.height}"
             )
+    products: list[sp.csr_matrix | None] = []
+    product_bytes = 0
     for i, (cam, ms) in enumerate(zip(cameras, masksets, strict=True)):
         contrib = build_contributors(sub, cam, config=raster, cache=False)
         valid = contrib.alpha() >= config.min_pixel_alpha if config.min_pixel_alpha > 0 else None
         vm = view_masks(ms, i, config, rng, valid=valid)
-        acc.add(contrib, vm)
+        product = mask_gaussian_weights(vm, contrib) if vm.n_masks else None
+        acc.add(contrib, vm, product)
+        if product is not None:
+            size = product.data.nbytes + product.indices.nbytes + product.indptr.nbytes
+            if product_bytes + size > budget * _MASK_GAUSSIANS_SHARE:
+                product = None
+            else:
+                product_bytes += size
+        products.append(product)
         if storage != "recompute":
             contribs.append(contrib)
         vms.append(vm)
-        del contrib, valid, vm
+        del contrib, valid, vm, product
         if progress is not None:
             progress(i + 1)
     weights: Sequence[Contributors] = contribs
@@ -169,7 +186,9 @@ def prepare_views(
     }
     if storage == "recompute":
         counts["resident"] = 0
-    return LiftedViews(scene.n, active, weights, masks, acc.codes, acc.supervision, counts)
+    return LiftedViews(
+        scene.n, active, weights, masks, acc.codes, acc.supervision, counts, tuple(products)
+    )
 
 
 def _disk_allowance(spill_dir: str | Path | None) -> int:
@@ -242,7 +261,8 @@ def mask_evidence(
         feature_map = np.zeros((vm.n_pixels, active_feats.shape[1]))
         feature_map[vm.pixels] = contrib.composite_rows(vm.pixels, active_feats)
         feats.append(mask_features(feature_map, vm))
-        blocks.append(mask_gaussian_weights(vm, contrib))
+        kept = views.mask_gaussians[i] if i < len(views.mask_gaussians) else None
+        blocks.append(kept if kept is not None else mask_gaussian_weights(vm, contrib))
         view_of.append(np.full(vm.n_masks, vm.view, dtype=np.int64))
         index_of.append(vm.mask_index)
         pixel_weight.append(np.asarray(vm.weights.sum(axis=1), dtype=np.float64).ravel())

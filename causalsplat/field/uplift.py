@@ -15,6 +15,7 @@ time by :class:`UpliftAccumulator`, while the build rasterizes the views
 from __future__ import annotations
 
 import numpy as np
+import scipy.sparse as sp
 
 from causalsplat.field.mask_gaussians import mask_gaussian_weights
 from causalsplat.field.weights import ViewMasks, normalize_rows
@@ -30,8 +31,13 @@ class UpliftAccumulator:
         self.supervision = np.zeros(n, dtype=np.float64)
         self._rng = rng
 
-    def add(self, contrib: Contributors, vm: ViewMasks) -> None:
-        """Add one view (views in order: the codes are drawn from the generator)."""
+    def add(
+        self, contrib: Contributors, vm: ViewMasks, product: sp.csr_matrix | None = None
+    ) -> None:
+        """Add one view (views in order: the codes are drawn from the generator).
+
+        ``product``: the view's ``B @ W`` when the caller has it (else computed here).
+        """
         if vm.pixels.size == 0 and vm.n_masks == 0:
             return
         if self.codes is not None and vm.n_masks > 0:
@@ -39,6 +45,8 @@ class UpliftAccumulator:
             codes = normalize_rows(self._rng.standard_normal((vm.n_masks, dim)))
             # W^T (B^T R) = (B W)^T R: one pass over the masks' pixels, not C + 1 channels
             # scattered over every weight of the view.
-            self.codes += np.asarray(mask_gaussian_weights(vm, contrib).T @ codes)
+            if product is None:
+                product = mask_gaussian_weights(vm, contrib)
+            self.codes += np.asarray(product.T @ codes)
         ones = np.ones((vm.pixels.shape[0], 1))
         self.supervision += contrib.transposed_rows(vm.pixels, ones)[:, 0]
