@@ -17,8 +17,9 @@ weights ``W_m``:
 * loss: mean over masks of ``L_pos + λ L_neg``, minimised by Adam on ``f``.
 
 Sampling makes a step cost the same at any image size: on scene0000_00 (320x240, 81k
-Gaussians) 8192 pixels a step took 11 ms against 35 ms for all of them, at equal instance
-quality (docs/benchmarks.md).
+Gaussians, about 68k covered pixels a view) a step on 4096 of them takes about 8 ms, on all
+of them 35 ms, at equal instance quality (docs/benchmarks.md, "Training on sampled
+pixels").
 
 The loss and its gradient with respect to the rendered features are written out by hand
 (:func:`contrastive_loss_and_grad`; a test holds the gradient to torch's autograd of the
