@@ -88,4 +88,14 @@ def rows_transposed_product(  # pragma: no cover - compiled
                 out[g, c] += w * grad[i, c]
 
 
-__all__ = ["rows_product", "rows_transposed_product", "select_rows"]
+@jit()
+def row_sums(indptr: np.ndarray, weights: np.ndarray, out: np.ndarray) -> None:  # pragma: no cover
+    """``out[p]`` = the float64 sum of row ``p``'s weights, in their stored order."""
+    for p in range(indptr.shape[0] - 1):
+        total = 0.0
+        for k in range(indptr[p], indptr[p + 1]):
+            total += np.float64(weights[k])
+        out[p] = total
+
+
+__all__ = ["row_sums", "rows_product", "rows_transposed_product", "select_rows"]

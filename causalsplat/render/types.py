@@ -143,8 +143,16 @@ class Contributors:
 
     def alpha(self) -> np.ndarray:
         """(H, W) float64 accumulated opacity: the sum of the weights of each pixel."""
-        # Summed in float64 straight from the float32 weights (no float64 copy of them).
+        # Summed in float64 straight from the float32 weights (no float64 copy of them),
+        # each row in its stored order, compiled or by numpy.
+        from causalsplat.render._backend import numba_available
+
         out = np.zeros(self.n_pixels, dtype=np.float64)
+        if numba_available():
+            from causalsplat.render._kernel_rows import row_sums
+
+            row_sums(self.indptr, self.weights, out)
+            return out.reshape(self.height, self.width)
         starts = np.asarray(self.indptr[:-1])
         rows = np.flatnonzero(np.diff(self.indptr) > 0)
         if rows.size:

@@ -119,3 +119,17 @@ def test_render_at_pixels_matches_the_full_render_and_passes_gradcheck(
         render_features(c, f64, pixels=np.array([48]))
     with pytest.raises(RenderError, match="exclude each other"):
         render_features(c, f64, pixels=px, as_image=True)
+
+
+def test_alpha_compiled_and_numpy_are_the_row_sums(
+    random_scene: Callable[..., GaussianScene], camera: Camera, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from causalsplat.render import _backend
+
+    contrib = build_contributors(random_scene(6), camera)
+    want = contrib.matrix(np.float64).sum(axis=1).A.ravel().reshape(camera.height, camera.width)
+    compiled = contrib.alpha()
+    monkeypatch.setattr(_backend, "numba_available", lambda: False)
+    np.testing.assert_allclose(compiled, want, rtol=1e-12, atol=0)
+    np.testing.assert_allclose(contrib.alpha(), compiled, rtol=1e-15, atol=0)
+    assert compiled.max() > 0.5
