@@ -8,7 +8,9 @@ from causalsplat.bench.batch import run
 
 def test_batch_bench_quick_run() -> None:
     report = run(quick=True)
-    rows = report.data["rows"]
+    (table,) = report.data["tables"]
+    assert table["size"] == "tiny" and table["scenes"] == 2
+    rows = table["rows"]
     assert [r["label"] for r in rows] == ["sequential loop of build", "build-many --workers 2"]
     for row in rows:
         assert "error" not in row, row
