@@ -27,13 +27,12 @@ import statistics
 import tempfile
 import time
 import tracemalloc
-import uuid
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from causalsplat.bench import BenchReport
+from causalsplat.bench._postgres import scratch_database
 
 NAME = "cross-scene"
 DATA = Path(
@@ -181,29 +180,6 @@ def _measure(store: Any, n: int, backend: str) -> list[dict[str, Any]]:
     return rows
 
 
-@contextmanager
-def _postgres_url() -> Iterator[str | None]:
-    admin_url = os.environ.get("CAUSALSPLAT_BENCH_POSTGRES_URL") or os.environ.get(
-        "CAUSALSPLAT_TEST_POSTGRES_URL"
-    )
-    if not admin_url:
-        yield None
-        return
-    import sqlalchemy as sa
-
-    url = sa.engine.make_url(admin_url)
-    name = f"cs_bench_{uuid.uuid4().hex[:10]}"
-    admin = sa.create_engine(url, isolation_level="AUTOCOMMIT")
-    try:
-        with admin.connect() as conn:
-            conn.execute(sa.text(f'CREATE DATABASE "{name}"'))
-        yield url.set(database=name).render_as_string(hide_password=False)
-    finally:
-        with admin.connect() as conn:
-            conn.execute(sa.text(f'DROP DATABASE IF EXISTS "{name}" WITH (FORCE)'))
-        admin.dispose()
-
-
 def measure(sizes: tuple[int, ...], root: Path = DATA) -> dict[str, Any]:
     """Ingest growing prefixes of the scans and measure every program at each size."""
     from graph_store import open_store
@@ -213,7 +189,7 @@ def measure(sizes: tuple[int, ...], root: Path = DATA) -> dict[str, Any]:
     rows: list[dict[str, Any]] = []
     ingest: list[dict[str, Any]] = []
     version = None
-    with tempfile.TemporaryDirectory(prefix="cs-cross-") as tmp, _postgres_url() as pg_url:
+    with tempfile.TemporaryDirectory(prefix="cs-cross-") as tmp, scratch_database() as pg_url:
         folder = Path(tmp)
         stores = {"sqlite": open_store(f"sqlite:///{folder / 'scenes.db'}")}
         if pg_url is not None:

@@ -30,15 +30,14 @@ import os
 import statistics
 import tempfile
 import time
-import uuid
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from causalsplat.bench import BenchReport
+from causalsplat.bench._postgres import scratch_database
 from graph_store.repository import open_store
 from graph_store.types import Attribute, Entity, Relation, SceneGraph, SceneMeta
 from queries import Executor, GraphQuery
@@ -130,27 +129,6 @@ def _p(values: list[float], q: float) -> float:
     return ordered[min(len(ordered) - 1, round(q * (len(ordered) - 1)))]
 
 
-@contextmanager
-def _postgres_url() -> Iterator[str | None]:
-    admin_url = os.environ.get("CAUSALSPLAT_TEST_POSTGRES_URL")
-    if not admin_url:
-        yield None
-        return
-    import sqlalchemy as sa
-
-    url = sa.engine.make_url(admin_url)
-    name = f"cs_bench_{uuid.uuid4().hex[:10]}"
-    admin = sa.create_engine(url, isolation_level="AUTOCOMMIT")
-    try:
-        with admin.connect() as conn:
-            conn.execute(sa.text(f'CREATE DATABASE "{name}"'))
-        yield url.set(database=name).render_as_string(hide_password=False)
-    finally:
-        with admin.connect() as conn:
-            conn.execute(sa.text(f'DROP DATABASE IF EXISTS "{name}" WITH (FORCE)'))
-        admin.dispose()
-
-
 def _executors(
     graph: SceneGraph, stores: dict[str, Any], n: int
 ) -> Iterator[tuple[str, Callable[[], Executor]]]:
@@ -201,7 +179,7 @@ def _measure(sizes: tuple[int, ...], stores: dict[str, Any]) -> list[dict[str, A
 def run(*, quick: bool = False) -> BenchReport:
     sizes = QUICK_SIZES if quick else SIZES
     load = os.getloadavg()
-    with tempfile.TemporaryDirectory() as tmp, _postgres_url() as pg_url:
+    with tempfile.TemporaryDirectory() as tmp, scratch_database() as pg_url:
         stores = {"sqlite": open_store(f"sqlite:///{Path(tmp) / 'bench.db'}")}
         if pg_url is not None:
             stores["postgres"] = open_store(pg_url)
