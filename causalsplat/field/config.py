@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import hashlib
 import json
-import math
 from dataclasses import asdict, dataclass
 from typing import Any, Literal
 
+from causalsplat._checks import Allowed, Interval, check_fields
 from causalsplat.errors import CausalSplatError
 
 Weighting = Literal["spatial", "average", "random"]
@@ -68,34 +68,7 @@ class FieldConfig:
     seed: int = 0
 
     def __post_init__(self) -> None:
-        checks = (
-            ("feature_dim", isinstance(self.feature_dim, int) and self.feature_dim >= 2),
-            ("weighting", self.weighting in ("spatial", "average", "random")),
-            ("w_min", _finite(self.w_min) and 0.0 <= self.w_min <= 1.0),
-            ("eps", _finite(self.eps) and self.eps > 0),
-            ("init", self.init in ("uplift", "random")),
-            ("iterations", isinstance(self.iterations, int) and self.iterations >= 0),
-            ("learning_rate", _finite(self.learning_rate) and self.learning_rate > 0),
-            (
-                "pixels_per_step",
-                isinstance(self.pixels_per_step, int) and self.pixels_per_step >= 0,
-            ),
-            ("margin", _finite(self.margin) and -1.0 <= self.margin < 1.0),
-            ("hard_negative", _finite(self.hard_negative) and -1.0 <= self.hard_negative <= 1.0),
-            ("negative_weight", _finite(self.negative_weight) and self.negative_weight >= 0),
-            (
-                "min_mask_pixels",
-                isinstance(self.min_mask_pixels, int) and self.min_mask_pixels >= 1,
-            ),
-            ("min_pixel_alpha", _finite(self.min_pixel_alpha) and 0 <= self.min_pixel_alpha < 1),
-            ("min_opacity", _finite(self.min_opacity) and 0.0 <= self.min_opacity < 1.0),
-            ("seed", isinstance(self.seed, int) and self.seed >= 0),
-        )
-        for name, ok in checks:
-            if not ok:
-                raise FieldConfigError(
-                    f"FieldConfig.{name}={getattr(self, name)!r} is out of range"
-                )
+        check_fields("FieldConfig", asdict(self), _ALLOWED, FieldConfigError)
 
     def to_json(self) -> dict[str, Any]:
         return asdict(self)
@@ -106,5 +79,20 @@ class FieldConfig:
         return hashlib.sha256(text.encode()).hexdigest()
 
 
-def _finite(value: object) -> bool:
-    return isinstance(value, int | float) and math.isfinite(value)
+_ALLOWED: dict[str, Allowed] = {
+    "feature_dim": Interval(2, integer=True),
+    "weighting": ("spatial", "average", "random"),
+    "w_min": Interval(0, 1),
+    "eps": Interval(0, low_open=True),
+    "init": ("uplift", "random"),
+    "iterations": Interval(0, integer=True),
+    "learning_rate": Interval(0, low_open=True),
+    "pixels_per_step": Interval(0, integer=True),
+    "margin": Interval(-1, 1, high_open=True),
+    "hard_negative": Interval(-1, 1),
+    "negative_weight": Interval(0),
+    "min_mask_pixels": Interval(1, integer=True),
+    "min_pixel_alpha": Interval(0, 1, high_open=True),
+    "min_opacity": Interval(0, 1, high_open=True),
+    "seed": Interval(0, integer=True),
+}

@@ -12,6 +12,7 @@ import math
 from dataclasses import dataclass, fields
 from typing import Any
 
+from causalsplat._checks import Allowed, Interval, check_fields
 from causalsplat.graph.errors import EdgeConfigError
 
 
@@ -76,21 +77,11 @@ class EdgeConfig:
                     raise EdgeConfigError(f"EdgeConfig.{f.name} must be a bool, got {value!r}")
             else:
                 _number(f.name, value)
-        min_fraction = self.horizontal_min_fraction
-        checks = (
-            ("tau_v", 0.0 <= self.tau_v < 1.0),
-            ("horizontal_size_factor", self.horizontal_size_factor >= 0.0),
-            ("horizontal_min_fraction", self.horizontal_min_fraction >= 0.0),
-            ("horizontal_max_fraction", self.horizontal_max_fraction >= min_fraction),
-            ("touch_fraction", self.touch_fraction >= 0.0),
-            ("touch_height_factor", self.touch_height_factor >= 0.0),
-            ("support_overlap", 0.0 < self.support_overlap <= 1.0),
-            ("contain_overlap", 0.0 < self.contain_overlap <= 1.0),
-            ("near_factor", self.near_factor >= 0.0),
-        )
-        for name, ok in checks:
-            if not ok:
-                raise EdgeConfigError(f"EdgeConfig.{name}={getattr(self, name)!r} is out of range")
+        values = {f.name: getattr(self, f.name) for f in fields(self)}
+        check_fields("EdgeConfig", values, _ALLOWED, EdgeConfigError)
+        check_fields("EdgeConfig", values,
+                     {"horizontal_max_fraction": Interval(self.horizontal_min_fraction)},
+                     EdgeConfigError)  # fmt: skip
         groups = (self.floor_categories, self.wall_categories, self.ceiling_categories)
         seen: set[str] = set()
         for group in groups:
@@ -123,6 +114,18 @@ class EdgeConfig:
                 value = "inf"
             out[f.name] = value
         return out
+
+
+_ALLOWED: dict[str, Allowed] = {
+    "tau_v": Interval(0, 1, high_open=True),
+    "horizontal_size_factor": Interval(0),
+    "horizontal_min_fraction": Interval(0),
+    "touch_fraction": Interval(0),
+    "touch_height_factor": Interval(0, infinite=True),
+    "support_overlap": Interval(0, 1, low_open=True),
+    "contain_overlap": Interval(0, 1, low_open=True),
+    "near_factor": Interval(0),
+}
 
 
 def _number(name: str, value: object) -> None:

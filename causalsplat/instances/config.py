@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import hashlib
 import json
-import math
 from dataclasses import asdict, dataclass
 from typing import Any, Literal
 
+from causalsplat._checks import Allowed, Interval, check_fields
 from causalsplat.errors import CausalSplatError
 
 
@@ -73,28 +73,14 @@ class InstanceConfig:
     propagate_coplanar: bool = True
 
     def __post_init__(self) -> None:
-        samples = self.min_samples
-        checks = (
-            ("min_cluster_size", _int_at_least(self.min_cluster_size, 2)),
-            ("min_samples", samples is None or _int_at_least(samples, 1)),
-            ("selection", self.selection in ("eom", "leaf")),
-            ("selection_epsilon", _finite(self.selection_epsilon) and self.selection_epsilon >= 0),
-            ("assignment", self.assignment in ("vote", "feature")),
-            ("min_similarity", _finite(self.min_similarity) and -1 <= self.min_similarity <= 1),
-            ("vote_feature_power", _finite(self.vote_feature_power)
-                                   and self.vote_feature_power >= 0),
-            ("min_vote_share", _finite(self.min_vote_share) and 0 <= self.min_vote_share <= 1),
-            ("min_gaussians", _int_at_least(self.min_gaussians, 1)),
-            ("min_evidence", _finite(self.min_evidence) and self.min_evidence >= 0),
-            ("propagate_sigmas", _finite(self.propagate_sigmas) and self.propagate_sigmas >= 0),
-            ("propagate_neighbors", _int_at_least(self.propagate_neighbors, 1)),
-            ("propagate_coplanar", isinstance(self.propagate_coplanar, bool)),
-        )  # fmt: skip
-        for name, ok in checks:
-            if not ok:
-                raise InstanceConfigError(
-                    f"InstanceConfig.{name}={getattr(self, name)!r} is out of range"
-                )
+        allowed = dict(_ALLOWED)
+        if self.min_samples is None:
+            del allowed["min_samples"]
+        check_fields("InstanceConfig", asdict(self), allowed, InstanceConfigError)
+        if not isinstance(self.propagate_coplanar, bool):
+            raise InstanceConfigError(
+                f"InstanceConfig.propagate_coplanar must be a bool, got {self.propagate_coplanar!r}"
+            )
 
     def to_json(self) -> dict[str, Any]:
         return asdict(self)
@@ -103,9 +89,17 @@ class InstanceConfig:
         return hashlib.sha256(json.dumps(self.to_json(), sort_keys=True).encode()).hexdigest()
 
 
-def _finite(value: object) -> bool:
-    return isinstance(value, int | float) and math.isfinite(value)
-
-
-def _int_at_least(value: object, low: int) -> bool:
-    return isinstance(value, int) and not isinstance(value, bool) and value >= low
+_ALLOWED: dict[str, Allowed] = {
+    "min_cluster_size": Interval(2, integer=True),
+    "min_samples": Interval(1, integer=True),
+    "selection": ("eom", "leaf"),
+    "selection_epsilon": Interval(0),
+    "assignment": ("vote", "feature"),
+    "min_similarity": Interval(-1, 1),
+    "vote_feature_power": Interval(0),
+    "min_vote_share": Interval(0, 1),
+    "min_gaussians": Interval(1, integer=True),
+    "min_evidence": Interval(0),
+    "propagate_sigmas": Interval(0),
+    "propagate_neighbors": Interval(1, integer=True),
+}

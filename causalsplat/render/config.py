@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from typing import Literal
 
+from causalsplat._checks import Allowed, Interval, check_fields
 from causalsplat.render.errors import RenderError
 
 #: Values of :attr:`RasterConfig.backend`.
@@ -57,21 +58,24 @@ class RasterConfig:
     threads: int | None = None
 
     def __post_init__(self) -> None:
-        checks = (
-            ("low_pass", self.low_pass >= 0),
-            ("near", self.near > 0),
-            ("far", self.far > self.near),
-            ("alpha_max", 0 < self.alpha_max < 1),
-            ("alpha_min", 0 < self.alpha_min < self.alpha_max),
-            ("transmittance_min", 0 <= self.transmittance_min < 1),
-            ("max_contributors", self.max_contributors is None or self.max_contributors >= 1),
-            ("jacobian_margin", self.jacobian_margin >= 0),
-            ("tile_size", self.tile_size >= 1),
-            ("chunk", self.chunk >= 1),
-        )
-        for name, ok in checks:
-            if not ok:
-                raise RenderError(f"RasterConfig.{name}={getattr(self, name)!r} is out of range")
+        values = {f.name: getattr(self, f.name) for f in fields(self)}
+        allowed: dict[str, Allowed] = {
+            "low_pass": Interval(0),
+            "near": Interval(0, low_open=True),
+            "far": Interval(self.near if self.near in Interval() else None, low_open=True),
+            "alpha_max": Interval(0, 1, low_open=True, high_open=True),
+            "alpha_min": Interval(
+                0, self.alpha_max if self.alpha_max in Interval() else None,
+                low_open=True, high_open=True,
+            ),
+            "transmittance_min": Interval(0, 1, high_open=True),
+            "jacobian_margin": Interval(0),
+            "tile_size": Interval(1, integer=True),
+            "chunk": Interval(1, integer=True),
+        }  # fmt: skip
+        if self.max_contributors is not None:
+            allowed["max_contributors"] = Interval(1, integer=True)
+        check_fields("RasterConfig", values, allowed, RenderError)
         if self.backend not in BACKENDS:
             raise RenderError(
                 f"RasterConfig.backend={self.backend!r} must be in {', '.join(BACKENDS)}"
