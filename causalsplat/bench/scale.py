@@ -168,7 +168,7 @@ def _ratio_lines(rows: list[dict[str, Any]]) -> list[str]:
 
 
 def _interpreter_mib() -> float:
-    code = "import causalsplat.build, torch; from causalsplat.build.pipeline import _peak_rss_mib;"
+    code = "import causalsplat.build, numba; from causalsplat.build.pipeline import _peak_rss_mib;"
     code += " print(_peak_rss_mib())"
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     return float(proc.stdout.strip())
@@ -235,8 +235,8 @@ def run(*, quick: bool = False) -> BenchReport:
     md = [
         "Synthetic `medium` room (60 objects, SAM-like mask noise) regenerated at each size; "
         "each build `causalsplat build --json --no-cache` in its own process (stage times and "
-        f"peak RSS its own; the interpreter with torch imported peaks at {base_mib:.0f} MiB, "
-        "subtracted before fitting memory exponents).",
+        "peak RSS its own; the interpreter with the build's modules imported peaks at "
+        f"{base_mib:.0f} MiB, subtracted before fitting memory exponents).",
         "",
         "### Growth with the number of Gaussians",
         "",
