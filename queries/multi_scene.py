@@ -8,7 +8,7 @@
 Scenes are chosen with ``scenes``: ``None`` for every stored scene, a glob (``"scene00*"``,
 ``fnmatch`` rules, case-sensitive) or a list of scene ids. How each executor runs:
 
-* ``"sql"``: one statement for all selected scenes (:mod:`queries.sql_executor`), the database
+* ``"sql"``: one statement for all selected scenes (:mod:`queries.sql_many`), the database
   doing the work once; ``fall_if_removed`` one statement per round for all of them;
 * ``"sparql"``: one Oxigraph (or rdflib) dataset holding every selected scene, loaded
   once, and the per-scene executor run on it scene after scene;
@@ -175,7 +175,7 @@ def run_program_all(
     ids = _select(stored, scenes, store.url)
     by_scene: dict[str, QueryResult]
     if executor == "sql":
-        from queries.sql_executor import run_sql_many
+        from queries.sql_many import run_sql_many
 
         # a selection of every stored scene needs no scene filter in the statement
         every = len(ids) == len(stored)

@@ -1,19 +1,18 @@
-"""The SQL executor: a program compiled to one SQLAlchemy Core statement over the store.
+"""The SQL executor: a program compiled to SQLAlchemy Core over the store's tables.
 
-Each step is one CTE (``s0``, ``s1``, ...) of a single ``WITH`` statement whose CTEs carry
-``(scene_id, id)`` (:mod:`queries._sql_steps`), so the database evaluates the program once
-for every selected scene (:func:`run_sql_many`; :class:`SqlExecutor` is the one-scene
-case), and the final ``SELECT`` returns ``(step, scene_id, id)`` rows, split per scene in
-Python; ``count`` and ``exists`` are grouped per scene with the selected scenes as the
-outer side, so a scene with nothing to count still answers 0. ``support_closure`` is a
+Each step is one CTE (``s0``, ``s1``, ...) of a single ``WITH`` statement whose final
+``SELECT`` returns every step's rows (``UNION ALL`` of ``(step, id)``), so the database
+computes every intermediate set (the ids of the whole scene, when a step is ``scene()``,
+come from one plain ``SELECT`` beside it, read again only when the scene row shows the
+scene was saved again since the executor last read them); ``support_closure`` is a
 recursive CTE. A CTE may list an id twice (``relate`` unions both edge directions without
-de-duplicating); every reader treats CTEs as sets. Two things run as separate statements,
-combined in Python with the shared rules of :mod:`queries.semantics`: the distinct strings
-that text filters match against (read first, matched in Python, bound back), and
-``fall_if_removed``: the removed entities, then the support edges of the scenes they are
-in, with each scene's rounds worked out by the reference rule
-(:func:`queries.semantics.fall_rounds`); one statement per round cost a round trip with
-ever longer id lists per round, seconds over 1,500 scans. Works on SQLite and PostgreSQL.
+de-duplicating); every reader treats CTEs as sets (``IN``, ``count(DISTINCT)``, a Python
+set at the end). Two things run as
+several statements, combined in Python with the shared rules of :mod:`queries.semantics`:
+the distinct strings that text filters match against (read first, matched in Python, bound
+back), and ``fall_if_removed``, an iterative fixpoint with one SQL statement per round
+(and one to read the supporters that explain each fallen entity); its result then enters the
+main statement as an inline id list. Works on SQLite and PostgreSQL.
 
 PostgreSQL, unlike IEEE-754, raises on floating-point underflow (a product below about
 1e-308, i.e. coordinates closer than about 1e-154 scene units); such a run, like any other
@@ -23,7 +22,7 @@ database failure, raises :class:`~queries.QueryExecutionError`.
 from __future__ import annotations
 
 from collections import defaultdict
-from collections.abc import Sequence
+from operator import itemgetter
 from typing import Any
 
 import sqlalchemy as sa
@@ -32,106 +31,86 @@ from sqlalchemy.engine import Connection, Engine
 from graph_store import models as m
 from graph_store.errors import SceneNotFound
 from queries._base import Executor
-from queries._sql_steps import Pair, SqlSteps
+from queries._sql_steps import E, SqlSteps, ids_literal
 from queries.errors import QueryExecutionError
 from queries.model import GraphQuery, Op, Step
 from queries.result import QueryResult, StepValue
-from queries.semantics import (
-    DEFAULT_CONFIG,
-    QueryConfig,
-    SupportPath,
-    fall_rounds,
-    support_paths,
-)
-
-EXECUTOR_NAME = "sql"
-
-
-def run_sql_many(
-    engine: Engine,
-    scene_ids: Sequence[str],
-    program: GraphQuery,
-    *,
-    all_scenes: bool = False,
-    config: QueryConfig = DEFAULT_CONFIG,
-) -> dict[str, QueryResult]:
-    """``program``'s result on each of ``scene_ids`` (stored scenes), in one transaction.
-
-    ``all_scenes`` says that ``scene_ids`` are all the stored scenes, so the statement
-    needs no scene filter. Raises :class:`~queries.QueryExecutionError` when the database
-    fails.
-    """
-    if not scene_ids:
-        return {}
-    try:
-        with engine.connect() as conn, conn.begin():
-            scope = None if all_scenes else list(scene_ids)
-            return _ManyRun(conn, scene_ids, scope, config).run(program)
-    except sa.exc.DBAPIError as exc:
-        reason = str(exc.orig).strip().splitlines()[0] if exc.orig else str(exc)
-        where = f"scene {scene_ids[0]!r}" if len(scene_ids) == 1 else f"{len(scene_ids)} scenes"
-        raise QueryExecutionError(
-            f"the database could not run the program on {where}: {reason}"
-        ) from exc
+from queries.semantics import DEFAULT_CONFIG, QueryConfig, SupportPath, support_paths
 
 
 class SqlExecutor(Executor):
-    """Runs programs with SQL on a store database (SQLite or PostgreSQL), on one scene.
-
-    The one-scene case of :func:`run_sql_many`: the same statement, with the scene
-    selection reduced to ``scene_id``.
+    """Runs programs with SQL on a store database (SQLite or PostgreSQL).
 
     Args:
         engine: a SQLAlchemy engine on a store (``open_store(url).engine``).
         scene_id: the stored scene to query; :class:`SceneNotFound` when absent.
     """
 
-    name = EXECUTOR_NAME
+    name = "sql"
 
     def __init__(self, engine: Engine, scene_id: str, config: QueryConfig = DEFAULT_CONFIG):
         super().__init__(scene_id, config)
         self.engine = engine
+        #: The scene's ids in order, with the scene row's version they were read under.
+        self._scene_ids: tuple[Any, tuple[int, ...]] | None = None
         with engine.connect() as conn:
             found = conn.execute(sa.select(m.scenes.c.id).where(m.scenes.c.id == scene_id)).first()
         if found is None:
             raise SceneNotFound(f"no scene {scene_id!r} in the store at {engine.url!r}")
 
     def _execute(self, program: GraphQuery) -> QueryResult:
-        return run_sql_many(self.engine, [self.scene_id], program, config=self.config)[
-            self.scene_id
-        ]
+        try:
+            with self.engine.connect() as conn, conn.begin():
+                return _SqlRun(conn, self.scene_id, self.config, self).run(program)
+        except sa.exc.DBAPIError as exc:
+            reason = str(exc.orig).strip().splitlines()[0] if exc.orig else str(exc)
+            raise QueryExecutionError(
+                f"the database could not run the program on scene {self.scene_id!r}: {reason}"
+            ) from exc
+
+    def scene_ids(self, conn: Connection, c: SqlSteps) -> tuple[int, ...]:
+        """The scene's entity ids, ascending, read again only when the scene changed.
+
+        A stored scene's entities change only when the whole scene is saved again or
+        deleted, which writes a new scene row; its ``created_at`` and ``entity_count``,
+        read in the run's own transaction, tell whether the ids read before still hold.
+        """
+        s = m.scenes.c
+        version = conn.execute(
+            sa.select(s.created_at, s.entity_count).where(s.id == self.scene_id)
+        ).first()
+        cached = self._scene_ids
+        if version is not None and cached is not None and cached[0] == tuple(version):
+            return cached[1]
+        ids = tuple(map(itemgetter(0), raw_rows(conn, c.scene().order_by(E.c.id))))
+        self._scene_ids = None if version is None else (tuple(version), ids)
+        return ids
 
 
-class _ManyRun:
+class _SqlRun:
     def __init__(
-        self,
-        conn: Connection,
-        scene_ids: Sequence[str],
-        scope: Sequence[str] | None,
-        config: QueryConfig,
+        self, conn: Connection, scene_id: str, config: QueryConfig, owner: SqlExecutor
     ) -> None:
+        self.owner = owner
         self.conn = conn
-        self.scene_ids = list(scene_ids)
+        self.scene_id = scene_id
         self.config = config
-        self.c = SqlSteps(conn, scope, config)
+        self.c = SqlSteps(conn, scene_id, config)
         self.ctes: list[Any] = []
-        self.paths: dict[str, list[SupportPath]] = defaultdict(list)
+        self.paths: list[SupportPath] = []
 
-    def run(self, program: GraphQuery) -> dict[str, QueryResult]:
+    def run(self, program: GraphQuery) -> QueryResult:
         for i, step in enumerate(program.steps):
             self.ctes.append(self._compile(i, step))
         values = self._fetch(program)
-        return {
-            sid: QueryResult(
-                scene_id=sid,
-                program=program,
-                answer=values[sid][program.answer_step],
-                steps=values[sid],
-                support_paths=tuple(sorted(self.paths.get(sid, ()))),
-                executor=EXECUTOR_NAME,
-            )
-            for sid in self.scene_ids
-        }
+        return QueryResult(
+            scene_id=self.scene_id,
+            program=program,
+            answer=values[program.answer_step],
+            steps=values,
+            support_paths=tuple(sorted(self.paths)),
+            executor=SqlExecutor.name,
+        )
 
     def _compile(self, i: int, step: Step) -> Any:
         c, name = self.c, f"s{i}"
@@ -157,81 +136,82 @@ class _ManyRun:
         if op is Op.SUPPORT_CLOSURE:
             return c.support_closure(name, src[0])
         if op is Op.FALL_IF_REMOVED:
-            return c.fallen(self._fall(i, src[0][1]), f"fallen{i}").cte(name)
+            fallen = self._fall(i, src[0][1])
+            return (
+                sa.select(E.c.id)
+                .where(E.c.scene_id == self.scene_id, E.c.id.in_(ids_literal(fallen, f"fallen{i}")))
+                .cte(name)
+            )
         # count / exists: computed in the final statement from their input's CTE
         return src[0][1]
 
-    def _fall(self, i: int, removed_cte: Any) -> set[Pair]:
-        """The fixpoint of every scene with something removed; records the support paths.
+    def _fall(self, i: int, removed_cte: Any) -> set[int]:
+        """The fixpoint, one statement per round; records the support paths.
 
-        Two statements whatever the number of scenes and rounds: the removed entities, then
-        every support edge ``(scene, upper, lower)`` of the scenes they are in with the
-        upper entity's category. The rounds are then worked out per scene by the reference
-        rule (:func:`queries.semantics.fall_rounds`), which gives each entity the round the
-        per-scene executor's statements find it in (see :mod:`queries.sql_executor`).
+        Round ``r`` looks only at what rests on the entities added in round ``r - 1``
+        (an entity whose supporters were all known earlier fell earlier), keeps those not
+        known yet, not structural, and with no supporter outside the known set.
         """
-        removed_rows = sa.select(removed_cte.c.scene_id, removed_cte.c.id)
-        removed: dict[str, set[int]] = defaultdict(set)
-        for sid, x in raw_rows(self.conn, removed_rows):
-            removed[sid].add(x)
-        if not removed:
-            return set()
-        supporters: dict[str, dict[int, list[int]]] = defaultdict(lambda: defaultdict(list))
-        structural: dict[str, set[int]] = defaultdict(set)
-        for sid, upper, lower, category in raw_rows(self.conn, self.c.support_edges(removed)):
-            supporters[sid][upper].append(lower)
-            if self.config.is_structural(category):
-                structural[sid].add(upper)
-        fallen: set[Pair] = set()
-        for sid, gone in removed.items():
-            rounds = fall_rounds(gone, supporters[sid], structural[sid])
-            if rounds:
-                self.paths[sid].extend(support_paths(i, gone, rounds, supporters[sid]))
-                fallen.update((sid, x) for x in rounds)
-        return fallen
+        removed = {r[0] for r in raw_rows(self.conn, sa.select(removed_cte.c.id))}
+        structural = [cat for cat in self.c.categories() if self.config.is_structural(cat)]
+        rounds: dict[int, int] = {}
+        known, frontier = set(removed), set(removed)
+        current = 0
+        while frontier:
+            current += 1
+            known_ids = ids_literal(known, "known")
+            cand = self.c.resting_on(ids_literal(frontier, "frontier")).subquery("cand")
+            query = (
+                sa.select(cand.c.id)
+                .join(E, sa.and_(E.c.scene_id == self.scene_id, E.c.id == cand.c.id))
+                .where(cand.c.id.not_in(known_ids), E.c.category.not_in(structural))
+                .where(~self.c.held_outside(cand.c.id, known_ids))
+            )
+            frontier = {r[0] for r in raw_rows(self.conn, query)}
+            rounds.update((x, current) for x in frontier)
+            known |= frontier
+        if rounds:
+            supporters: dict[int, list[int]] = defaultdict(list)
+            edges = self.c.supporter_edges(ids_literal(set(rounds), "fallen"))
+            for upper, lower in raw_rows(self.conn, edges):
+                supporters[upper].append(lower)
+            self.paths.extend(support_paths(i, removed, rounds, supporters))
+        return set(rounds)
 
-    def _fetch(self, program: GraphQuery) -> dict[str, tuple[StepValue, ...]]:
-        """Every step's value per scene: one statement for the steps that are not the whole
-        scene (their ``(step, scene_id, id)`` rows), one for the scenes' entities when a
-        step is the whole scene."""
+    def _fetch(self, program: GraphQuery) -> tuple[StepValue, ...]:
+        """Every step's value: one statement for the steps that are not the whole scene
+        (their ``(step, id)`` rows), one for the scene's ids when a step is the scene."""
         parts = []
-        chosen = self.c.selected_scenes().subquery("chosen")
         for i, (step, cte) in enumerate(zip(program.steps, self.ctes, strict=True)):
             tag = sa.literal(i, sa.Integer()).label("step")
             if step.op is Op.SCENE:
                 continue
-            if step.op in (Op.COUNT, Op.EXISTS):
-                joined = chosen.outerjoin(cte, cte.c.scene_id == chosen.c.id)
-                count = sa.func.count(sa.distinct(cte.c.id))
-                parts.append(
-                    sa.select(tag, chosen.c.id.label("scene_id"), count.label("id"))
-                    .select_from(joined)
-                    .group_by(chosen.c.id)
-                )
+            if step.op is Op.COUNT:
+                count = sa.func.count(sa.distinct(cte.c.id)).label("id")
+                parts.append(sa.select(tag, count))
+            elif step.op is Op.EXISTS:
+                flag = sa.case((sa.exists(sa.select(cte.c.id)), 1), else_=0)
+                parts.append(sa.select(tag, flag.label("id")))
             else:
-                parts.append(sa.select(tag, cte.c.scene_id, cte.c.id.label("id")))
-        sets: dict[tuple[int, str], set[int]] = defaultdict(set)
+                parts.append(sa.select(tag, cte.c.id.label("id")))
+        sets: dict[int, set[int]] = defaultdict(set)
         if parts:
-            for step_index, sid, value in raw_rows(self.conn, sa.union_all(*parts)):
-                sets[step_index, sid].add(value)
-        whole: dict[str, list[int]] = defaultdict(list)
+            for step_index, value in raw_rows(self.conn, sa.union_all(*parts)):
+                sets[step_index].add(value)
+        scene: tuple[int, ...] = ()
         if self.c.whole:
-            for sid, x in raw_rows(self.conn, self.c.scene()):
-                whole[sid].append(x)
-        out: dict[str, tuple[StepValue, ...]] = {}
-        for sid in self.scene_ids:
-            values: list[StepValue] = []
-            for i, step in enumerate(program.steps):
-                if step.op is Op.SCENE:
-                    values.append(tuple(sorted(whole.get(sid, ()))))
-                elif step.op is Op.COUNT:
-                    values.append(int(next(iter(sets.get((i, sid), {0})))))
-                elif step.op is Op.EXISTS:
-                    values.append(bool(next(iter(sets.get((i, sid), {0})))))
-                else:
-                    values.append(tuple(sorted(sets.get((i, sid), ()))))
-            out[sid] = tuple(values)
-        return out
+            scene = self.owner.scene_ids(self.conn, self.c)
+        out: list[StepValue] = []
+        for i, step in enumerate(program.steps):
+            if step.op is Op.SCENE:
+                out.append(scene)
+            elif step.op is Op.COUNT:
+                out.append(int(next(iter(sets[i]))))
+            elif step.op is Op.EXISTS:
+                out.append(bool(next(iter(sets[i]))))
+            else:
+                out.append(tuple(sorted(sets[i])))
+        return tuple(out)
 
 
 def raw_rows(conn: Connection, statement: Any) -> list[Any]:
