@@ -88,6 +88,31 @@ class SqlAlgebra(Algebra[Num, Cond]):
 SQL = SqlAlgebra()
 
 
+def compile_shared(c: Any, name: str, step: Step, src: list[tuple[int, Any]]) -> Any | None:
+    """The CTE ``name`` of ``step`` from its inputs ``src`` ((index, CTE) pairs) for the ops
+    that the one-scene and the many-scene compilers (``c``: their step builders, which
+    share these methods) write alike; ``None`` for ``scene``, ``fall_if_removed``,
+    ``count`` and ``exists``, which each executor compiles its own way."""
+    op = step.op
+    if op is Op.FILTER_CATEGORY:
+        return c.filter_category(step, src[0]).cte(name)
+    if op in (Op.FILTER_ATTRIBUTE, Op.FILTER_AFFORDANCE):
+        return c.filter_attribute(step, src[0]).cte(name)
+    if op is Op.MATCH_TEXT:
+        return c.match_text(step, src[0]).cte(name)
+    if op is Op.RELATE:
+        return c.relate(step, src[0], src[1]).cte(name)
+    if op is Op.RELATE_BETWEEN:
+        return c.relate_between(step, *src).cte(name)
+    if op in (Op.ARGMIN, Op.ARGMAX):
+        return c.rank(step, *src).cte(name)
+    if op in (Op.UNION, Op.INTERSECT, Op.DIFFERENCE):
+        return c.set_op(op, src).cte(name)
+    if op is Op.SUPPORT_CLOSURE:
+        return c.support_closure(name, src[0])
+    return None
+
+
 def ids_literal(ids: set[int] | frozenset[int] | list[int], name: str) -> Any:
     """A list of entity ids rendered inline (integers from the database, never user text),
     so large sets do not run into the drivers' parameter limits."""

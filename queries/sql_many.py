@@ -23,6 +23,7 @@ import sqlalchemy as sa
 from sqlalchemy.engine import Connection, Engine
 
 from queries._sql_many_steps import Pair, SqlManySteps
+from queries._sql_steps import compile_shared
 from queries.errors import QueryExecutionError
 from queries.model import GraphQuery, Op, Step
 from queries.result import QueryResult, StepValue
@@ -103,22 +104,9 @@ class _ManyRun:
         if op is Op.SCENE:
             c.whole.add(i)
             return c.scene().cte(name)
-        if op is Op.FILTER_CATEGORY:
-            return c.filter_category(step, src[0]).cte(name)
-        if op in (Op.FILTER_ATTRIBUTE, Op.FILTER_AFFORDANCE):
-            return c.filter_attribute(step, src[0]).cte(name)
-        if op is Op.MATCH_TEXT:
-            return c.match_text(step, src[0]).cte(name)
-        if op is Op.RELATE:
-            return c.relate(step, src[0], src[1]).cte(name)
-        if op is Op.RELATE_BETWEEN:
-            return c.relate_between(step, *src).cte(name)
-        if op in (Op.ARGMIN, Op.ARGMAX):
-            return c.rank(step, *src).cte(name)
-        if op in (Op.UNION, Op.INTERSECT, Op.DIFFERENCE):
-            return c.set_op(op, src).cte(name)
-        if op is Op.SUPPORT_CLOSURE:
-            return c.support_closure(name, src[0])
+        shared = compile_shared(c, name, step, src)
+        if shared is not None:
+            return shared
         if op is Op.FALL_IF_REMOVED:
             return c.fallen(self._fall(i, src[0][1]), f"fallen{i}").cte(name)
         # count / exists: computed in the final statement from their input's CTE
