@@ -82,20 +82,13 @@ class Contributors:
         ([0, 1, 3], [2, 1, 2], [1.0, 0.25, 0.5])
         """
         pixels = self._checked(pixels)
-        from causalsplat.render._backend import numba_available
-
-        if numba_available():
-            from causalsplat.render._kernel_rows import select_rows
-
-            indptr, indices, weights = select_rows(self.indptr, self.indices, self.weights, pixels)
-        else:
-            starts = np.asarray(self.indptr)[pixels]
-            lengths = np.asarray(self.indptr)[pixels + 1] - starts
-            indptr = np.zeros(pixels.shape[0] + 1, dtype=np.int64)
-            np.cumsum(lengths, out=indptr[1:])
-            take = np.repeat(starts - indptr[:-1], lengths) + np.arange(indptr[-1])
-            indices = np.asarray(self.indices)[take]
-            weights = np.asarray(self.weights)[take]
+        starts = np.asarray(self.indptr)[pixels]
+        lengths = np.asarray(self.indptr)[pixels + 1] - starts
+        indptr = np.zeros(pixels.shape[0] + 1, dtype=np.int64)
+        np.cumsum(lengths, out=indptr[1:])
+        take = np.repeat(starts - indptr[:-1], lengths) + np.arange(indptr[-1])
+        indices = np.asarray(self.indices)[take]
+        weights = np.asarray(self.weights)[take]
         return Contributors(
             int(pixels.shape[0]), 1, self.n_gaussians, indptr, indices, weights, self.depths,
             self.key,
