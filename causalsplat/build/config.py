@@ -29,7 +29,7 @@ from causalsplat.instances import InstanceConfig
 from causalsplat.render import RasterConfig
 
 #: Top-level options that change only speed and memory, never the result.
-SPEED_ONLY: tuple[str, ...] = ("views", "memory_budget_mib")
+SPEED_ONLY: tuple[str, ...] = ("views", "memory_budget_mib", "huge_pages")
 
 
 def _physical_memory() -> int:
@@ -83,6 +83,10 @@ class BuildConfig:
             (``None``: a quarter of the machine's memory). The per-Gaussian arrays and one
             view in use come on top of it.
             Speed and memory only.
+        huge_pages: let numpy ask for transparent huge pages for the build's large arrays
+            (its default elsewhere). Off: on virtual machines the first touch of a huge
+            page can cost more than the pages save (:mod:`causalsplat.build.huge_pages`).
+            Speed only.
     """
 
     max_views: int | None = None
@@ -95,6 +99,7 @@ class BuildConfig:
     image_scale: float = 1.0
     views: ViewStorage = "auto"
     memory_budget_mib: int | None = None
+    huge_pages: bool = False
     raster: RasterConfig = dataclasses.field(default_factory=RasterConfig)
     field: FieldConfig = dataclasses.field(default_factory=FieldConfig)
     instances: InstanceConfig = dataclasses.field(default_factory=InstanceConfig)
@@ -136,6 +141,8 @@ class BuildConfig:
             raise BuildConfigError(
                 f"memory_budget_mib must be an integer in [0, inf) or null, got {budget!r}"
             )
+        if not isinstance(self.huge_pages, bool):
+            raise BuildConfigError(f"huge_pages={self.huge_pages!r} must be true or false")
         if not isinstance(self.units, str) or not self.units:
             raise BuildConfigError(f"units={self.units!r} must be a non-empty string")
 
@@ -143,7 +150,8 @@ class BuildConfig:
         out: dict[str, Any] = {
             name: getattr(self, name)
             for name in ("max_views", "units", "up_axis", "labeler", "allow_distortion",
-                         "min_seen", "min_masked", "image_scale", "views", "memory_budget_mib")
+                         "min_seen", "min_masked", "image_scale", "views", "memory_budget_mib",
+                         "huge_pages")
         }  # fmt: skip
         for name in _SECTIONS:
             out[name] = _section_json(getattr(self, name))
@@ -151,8 +159,8 @@ class BuildConfig:
 
     def result_json(self) -> dict[str, Any]:
         """:meth:`to_json` less the options that change only speed and memory (``views``,
-        ``memory_budget_mib``, ``raster.threads``): what the scene's ``config_hash`` and
-        the stage caches are keyed on."""
+        ``memory_budget_mib``, ``huge_pages``, ``raster.threads``): what the scene's
+        ``config_hash`` and the stage caches are keyed on."""
         out = self.to_json()
         for name in SPEED_ONLY:
             out.pop(name)

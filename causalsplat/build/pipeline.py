@@ -40,6 +40,7 @@ from causalsplat.build.config import BuildConfig
 from causalsplat.build.coverage import Coverage, measure_coverage
 from causalsplat.build.errors import BuildError, CoverageError, StageError
 from causalsplat.build.folder import SceneFolder, find_view_image, read_scene_folder
+from causalsplat.build.huge_pages import huge_page_advice
 from causalsplat.build.scale import scale_folder
 from causalsplat.errors import CausalSplatError
 from causalsplat.field import (
@@ -204,7 +205,7 @@ def build_scene(
     :class:`BuildError`, one line naming the stage) for any other failure inside a stage.
     """
     config = config or BuildConfig()
-    with single_threaded_blas():
+    with single_threaded_blas(), huge_page_advice(config.huge_pages):
         return _build(Path(path), scene_id, config, cache_dir, progress, labeler)
 
 

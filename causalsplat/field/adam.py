@@ -5,8 +5,11 @@ The update of ``torch.optim.Adam`` with its defaults (no weight decay, no amsgra
     m <- b1 m + (1 - b1) g;   v <- b2 v + (1 - b2) g^2
     p <- p - lr / (1 - b1^t) * m / (sqrt(v) / sqrt(1 - b2^t) + eps)
 
-in numpy's in-place operations (a test holds it to torch's over many steps). The features
-of a build are one (N, C) float32 array, so nothing more general is needed.
+as one compiled pass over the arrays where numba imports
+(:mod:`causalsplat.field._kernel_adam`), else numpy's in-place operations; both do the
+same float32 operations in the same order (tests hold them to each other and to torch's
+over many steps). The features of a build are one (N, C) float32 array, so nothing more
+general is needed.
 
 >>> import numpy as np
 >>> p = np.array([1.0, -2.0], dtype=np.float32)
@@ -31,6 +34,8 @@ class Adam:
     Args:
         param: the array to optimise.
         lr: step size (> 0). betas: the moments' decay rates, each in [0, 1). eps: > 0.
+        compiled: use the compiled update (default: where numba imports); ``False``
+            keeps numpy's operations (the reference the tests compare with).
     """
 
     def __init__(
@@ -39,6 +44,8 @@ class Adam:
         lr: float,
         betas: tuple[float, float] = (0.9, 0.999),
         eps: float = 1e-8,
+        *,
+        compiled: bool | None = None,
     ) -> None:
         if not isinstance(param, np.ndarray) or param.dtype != np.float32:
             raise FieldConfigError("Adam optimises a float32 numpy array")
@@ -48,9 +55,14 @@ class Adam:
             raise FieldConfigError("Adam: lr must be > 0, betas in [0, 1) and eps > 0")
         self.param = param
         self.lr, self.betas, self.eps = lr, betas, eps
+        if compiled is None:
+            from causalsplat.render._backend import numba_available
+
+            compiled = numba_available()
+        self.compiled = compiled
         self.m = np.zeros_like(param)
         self.v = np.zeros_like(param)
-        self._scratch = np.zeros_like(param)
+        self._scratch: np.ndarray | None = None  # numpy's temporary, made on first use
         self.steps = 0
 
     def step(self, grad: np.ndarray) -> None:
@@ -64,6 +76,16 @@ class Adam:
         step_size = np.float32(self.lr / (1.0 - b1**self.steps))
         bias2_sqrt = np.float32(math.sqrt(1.0 - b2**self.steps))
         g = np.asarray(grad, dtype=np.float32)
+        if self.compiled and self.param.flags.c_contiguous:
+            from causalsplat.field._kernel_adam import adam_update
+
+            f32 = np.float32
+            adam_update(self.param.reshape(-1), np.ascontiguousarray(g).reshape(-1),
+                        self.m.reshape(-1), self.v.reshape(-1), f32(b1), f32(1.0 - b1),
+                        f32(b2), f32(1.0 - b2), step_size, bias2_sqrt, f32(self.eps))  # fmt: skip
+            return
+        if self._scratch is None:
+            self._scratch = np.zeros_like(self.param)
         m, v, tmp = self.m, self.v, self._scratch
         m *= np.float32(b1)
         np.multiply(g, np.float32(1.0 - b1), out=tmp)

@@ -24,9 +24,9 @@ pixels").
 The loss and its gradient with respect to the rendered features are written out by hand
 (:func:`contrastive_loss_and_grad`; a test holds the gradient to torch's autograd of the
 same formulas), the render and its transpose are compiled row kernels
-(:meth:`~causalsplat.render.types.Contributors.composite_rows`), and Adam is numpy: a
-build does not import torch (about a second), and a step runs no autograd bookkeeping.
-numpy / scipy (numba where it imports).
+(:meth:`~causalsplat.render.types.Contributors.composite_rows`), and Adam is one compiled
+pass (numpy without numba): a build does not import torch (about a second), and a step
+runs no autograd bookkeeping. numpy / scipy (numba where it imports).
 """
 
 from __future__ import annotations
@@ -188,6 +188,7 @@ def _train(
 ) -> tuple[float, ...]:
     """Train ``feats`` in place; returns the losses."""
     optimiser = Adam(feats, lr=config.learning_rate)
+    gradient = np.zeros_like(feats)  # one buffer for every step's gradient
     overlaps: dict[int, np.ndarray] = {}
     negatives_rng = np.random.default_rng([config.seed, 4])
     order_rng = np.random.default_rng(config.seed)
@@ -212,7 +213,7 @@ def _train(
         contrib = contributors[v]
         rendered = contrib.composite_rows(terms.pixels, feats)
         loss, grad = contrastive_loss_and_grad(rendered, terms, config, negatives_rng)
-        optimiser.step(contrib.transposed_rows(terms.pixels, grad))
+        optimiser.step(contrib.transposed_rows(terms.pixels, grad, out=gradient))
         losses.append(loss)
         if progress is not None:
             progress(step + 1)

@@ -24,8 +24,8 @@ def jit() -> Callable[[F], F]:
 
     def wrap(fn: F) -> F:
         try:
-            return numba.njit(cache=True, nogil=True)(fn)  # type: ignore[no-any-return]
+            return numba.njit(cache=True, nogil=True, error_model="numpy")(fn)  # type: ignore[no-any-return]
         except RuntimeError:  # "cannot cache function ...: no locator available for file"
-            return numba.njit(cache=False, nogil=True)(fn)  # type: ignore[no-any-return]
+            return numba.njit(cache=False, nogil=True, error_model="numpy")(fn)  # type: ignore[no-any-return]
 
     return wrap

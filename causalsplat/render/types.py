@@ -109,18 +109,37 @@ class Contributors:
         rows_product(self.indptr, self.indices, self.weights, pixels, values, out)
         return out
 
-    def transposed_rows(self, pixels: np.ndarray, grad: np.ndarray) -> np.ndarray:
+    def transposed_rows(
+        self, pixels: np.ndarray, grad: np.ndarray, out: np.ndarray | None = None
+    ) -> np.ndarray:
         """(N, C) ``W[pixels]^T @ grad`` for (P, C) ``grad``: the gradient of
-        :meth:`composite_rows` with respect to the values."""
+        :meth:`composite_rows` with respect to the values.
+
+        ``out``: a C-contiguous (N, C) array of ``grad``'s dtype to write the result into
+        (overwritten; the training reuses one, sparing a fresh array each step)."""
         pixels = self._checked(pixels)
         grad = np.ascontiguousarray(grad)
+        shape = (self.n_gaussians, grad.shape[1])
+        if out is not None and (
+            out.shape != shape or out.dtype != grad.dtype or not out.flags.c_contiguous
+        ):
+            from causalsplat.render.errors import RenderError
+
+            raise RenderError(f"out must be a C-contiguous {grad.dtype} array of shape {shape}")
         from causalsplat.render._backend import numba_available
 
         if not numba_available():
-            return np.asarray(self.rows(pixels).matrix(grad.dtype).T @ grad)
+            result = np.asarray(self.rows(pixels).matrix(grad.dtype).T @ grad)
+            if out is None:
+                return result
+            out[...] = result
+            return out
         from causalsplat.render._kernel_rows import rows_transposed_product
 
-        out = np.zeros((self.n_gaussians, grad.shape[1]), dtype=grad.dtype)
+        if out is None:
+            out = np.zeros(shape, dtype=grad.dtype)
+        else:
+            out.fill(0)
         rows_transposed_product(self.indptr, self.indices, self.weights, pixels, grad, out)
         return out
 

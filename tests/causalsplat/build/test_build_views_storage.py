@@ -14,6 +14,7 @@ import pytest
 
 from causalsplat.build import BuildConfig, build_scene
 from causalsplat.build.config import BuildConfigError
+from causalsplat.build.folder import SceneFolderFormatError
 from causalsplat.field import FieldConfig, prepare_views
 from causalsplat.field.spill import ArrayCodec, ViewSpill
 from graph_store import SceneGraph
@@ -94,12 +95,50 @@ def test_a_spill_keeps_views_resident_up_to_its_budget(tmp_path: Path) -> None:
     assert not folder.exists()
 
 
+@pytest.mark.parametrize("huge_pages", [False, True])
+def test_huge_page_advice_changes_nothing_but_speed_and_is_restored(
+    tiny_folder: Path, reference: tuple[np.ndarray, SceneGraph], huge_pages: bool
+) -> None:
+    """The build sets numpy's huge-page advice as asked while it runs, and gives back the
+    process's own setting afterwards (even when the build fails)."""
+    from numpy._core import multiarray
+
+    from causalsplat.build import pipeline
+
+    seen: list[bool] = []
+    real = pipeline._build
+
+    def spy(*args: object) -> object:
+        before = multiarray._set_madvise_hugepage(True)  # read the setting in force
+        multiarray._set_madvise_hugepage(before)
+        seen.append(before)
+        return real(*args)  # type: ignore[arg-type]
+
+    mine = multiarray._set_madvise_hugepage(not huge_pages)  # the opposite of the build's
+    try:
+        with pytest.MonkeyPatch.context() as mp:
+            mp.setattr(pipeline, "_build", spy)
+            config = BuildConfig(views="memory", huge_pages=huge_pages, **_FAST)
+            result = build_scene(tiny_folder, config=config, cache_dir=False)
+            assert seen == [huge_pages]
+            assert multiarray._set_madvise_hugepage(not huge_pages) is (not huge_pages)
+            with pytest.raises(SceneFolderFormatError, match="does not exist"):
+                build_scene(tiny_folder / "missing", config=config, cache_dir=False)
+            assert multiarray._set_madvise_hugepage(not huge_pages) is (not huge_pages)
+    finally:
+        multiarray._set_madvise_hugepage(mine)
+    labels, graph = reference
+    np.testing.assert_array_equal(result.gaussian_labels, labels)
+    assert result.graph == graph
+
+
 @pytest.mark.parametrize(
     "key, value, match",
     [
         ("views", "ram", r"views='ram' must be one of 'auto', 'memory', 'disk', 'recompute'"),
         ("memory_budget_mib", -1, r"memory_budget_mib must be an integer in \[0, inf\)"),
         ("memory_budget_mib", 1.5, r"memory_budget_mib must be an integer in \[0, inf\)"),
+        ("huge_pages", "yes", r"huge_pages='yes' must be true or false"),
     ],
 )
 def test_storage_options_are_checked(key: str, value: object, match: str) -> None:

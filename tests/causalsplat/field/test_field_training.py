@@ -13,11 +13,14 @@ from causalsplat.field.weights import view_masks
 from causalsplat.masks import MaskSet
 
 
-def test_adam_follows_torch_adam_over_many_steps() -> None:
+@pytest.mark.parametrize("compiled", [False, True])
+def test_adam_follows_torch_adam_over_many_steps(compiled: bool) -> None:
+    if compiled:
+        pytest.importorskip("numba")
     rng = np.random.default_rng(0)
     ours = rng.standard_normal((300, 16)).astype(np.float32)
     theirs = torch.tensor(ours.copy(), requires_grad=True)
-    mine, ref = Adam(ours, lr=0.02), torch.optim.Adam([theirs], lr=0.02)
+    mine, ref = Adam(ours, lr=0.02, compiled=compiled), torch.optim.Adam([theirs], lr=0.02)
     for step in range(200):
         grad = (rng.standard_normal((300, 16)) * 10.0 ** (step % 5 - 2)).astype(np.float32)
         grad[step % 300] = 0.0  # 1e-2 .. 1e2, and a row with no gradient
@@ -26,6 +29,24 @@ def test_adam_follows_torch_adam_over_many_steps() -> None:
         ref.step()
     np.testing.assert_allclose(ours, theirs.detach().numpy(), rtol=1e-5, atol=1e-6)
     assert mine.steps == 200 and np.abs(ours).sum() > 0
+
+
+def test_compiled_adam_gives_numpys_bits() -> None:
+    """The compiled update does numpy's float32 operations in numpy's order."""
+    pytest.importorskip("numba")
+    rng = np.random.default_rng(1)
+    start = rng.standard_normal((257, 16)).astype(np.float32)
+    fast, slow = start.copy(), start.copy()
+    opt_fast, opt_slow = Adam(fast, lr=0.05, compiled=True), Adam(slow, lr=0.05, compiled=False)
+    for step in range(60):
+        grad = (rng.standard_normal((257, 16)) * 10.0 ** (step % 7 - 3)).astype(np.float32)
+        grad[step % 257] = 0.0
+        opt_fast.step(grad)
+        opt_slow.step(grad)
+    np.testing.assert_array_equal(fast, slow)
+    np.testing.assert_array_equal(opt_fast.m, opt_slow.m)
+    np.testing.assert_array_equal(opt_fast.v, opt_slow.v)
+    assert not np.array_equal(fast, start)
 
 
 def test_adam_rejects_what_it_cannot_optimise() -> None:

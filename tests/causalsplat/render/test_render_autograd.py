@@ -84,6 +84,34 @@ def test_rows_render_the_chosen_pixels_and_their_gradient(
 
 
 @pytest.mark.parametrize("compiled", [True, False])
+def test_transposed_rows_into_a_reused_buffer(
+    random_scene: Callable[..., GaussianScene],
+    camera: Camera,
+    monkeypatch: pytest.MonkeyPatch,
+    compiled: bool,
+) -> None:
+    """``out=`` is overwritten with the product (old contents do not leak into it) and a
+    buffer of the wrong shape, dtype or layout is refused."""
+    from causalsplat.render import _backend
+
+    monkeypatch.setattr(_backend, "numba_available", lambda: compiled)
+    contrib = build_contributors(random_scene(4), camera)
+    rng = np.random.default_rng(2)
+    buffer = np.full((contrib.n_gaussians, 3), 7.0)
+    for _ in range(2):
+        pixels = np.sort(rng.choice(contrib.n_pixels, 30, replace=False))
+        grad = rng.standard_normal((30, 3))
+        want = contrib.rows(pixels).matrix(np.float64).T @ grad
+        got = contrib.transposed_rows(pixels, grad, out=buffer)
+        assert got is buffer
+        np.testing.assert_allclose(buffer, want, rtol=1e-12, atol=1e-12)
+    for bad in (np.zeros((contrib.n_gaussians, 2)), np.zeros((contrib.n_gaussians, 3), np.float32),
+                np.zeros((3, contrib.n_gaussians)).T):  # fmt: skip
+        with pytest.raises(RenderError, match="out must be a C-contiguous float64 array"):
+            contrib.transposed_rows(pixels, grad, out=bad)
+
+
+@pytest.mark.parametrize("compiled", [True, False])
 def test_render_at_pixels_matches_the_full_render_and_passes_gradcheck(
     random_scene: Callable[..., GaussianScene],
     camera: Camera,
