@@ -5,8 +5,10 @@ folder is read-only (an installed wheel), in numba's user cache directory
 (``NUMBA_CACHE_DIR`` or ``~/.cache/numba``). Where no folder is writable numba refuses
 ``cache=True`` at decoration time; the kernels are then compiled in memory each process.
 ``nogil=True``: the kernels run on several Python threads at once (see
-:mod:`causalsplat.render._kernel`). No fast-math: the kernels must take the decisions the
-numpy path and the float64 reference take.
+:mod:`causalsplat.render._kernel`). ``error_model="numpy"``: a float division by zero gives
+inf or nan, as in numpy, instead of raising; without the check in every division the loops
+vectorise (Adam's update: 4.3 ms against 0.5 ms on 1.3 M entries). No fast-math: the
+kernels must take the decisions the numpy path and the float64 reference take.
 """
 
 from __future__ import annotations
@@ -20,7 +22,8 @@ F = TypeVar("F", bound=Callable[..., Any])
 
 
 def jit() -> Callable[[F], F]:
-    """``numba.njit(cache=True, nogil=True)``, the cache dropped where it cannot be kept."""
+    """``numba.njit(cache=True, nogil=True, error_model="numpy")``, the cache dropped where
+    it cannot be kept."""
 
     def wrap(fn: F) -> F:
         try:
