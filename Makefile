@@ -4,7 +4,7 @@ PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
 PIP := $(PY) -m pip install --constraint constraints.txt
-EXTRAS ?= field,embed,vlm,postgres,dev,sam,ray
+EXTRAS ?= field,torch,embed,vlm,postgres,dev,sam,ray
 
 .PHONY: venv demo test lint typecheck pytest bench bench-store db-check wheel-check vlm-check clean
 

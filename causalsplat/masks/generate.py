@@ -144,11 +144,11 @@ class GenerateReport:
 
 def _require_packages(model: str, config: GenerateConfig) -> None:
     sam2 = model in SAM2_CONFIGS
-    wanted = {"torch": "field", "PIL": "field"}
+    wanted = {"torch": "torch", "PIL": "field"}
     wanted["sam2" if sam2 else "segment_anything"] = "sam2" if sam2 else "sam"
     missing = [name for name in wanted if importlib.util.find_spec(name) is None]
     if missing:
-        extras = ",".join(sorted({wanted[name] for name in missing} | {"field"}))
+        extras = ",".join(sorted({wanted[name] for name in missing}))
         raise MissingDependencyError(
             f"masks generate with {model} needs {', '.join(missing)}: "
             f"pip install 'causalsplat[{extras}]'"

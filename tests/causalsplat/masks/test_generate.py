@@ -230,11 +230,15 @@ def test_a_missing_package_names_the_extra(
 ) -> None:
     monkeypatch.setitem(sys.modules, "segment_anything", None)  # find_spec: not installed
     with pytest.raises(MissingDependencyError, match=r"needs segment_anything: pip install "
-                       r"'causalsplat\[field,sam\]'"):  # fmt: skip
+                       r"'causalsplat\[sam\]'"):  # fmt: skip
         _call(tmp_path, sam_run.images, sam_run.checkpoint)
     monkeypatch.setitem(sys.modules, "sam2", None)
-    with pytest.raises(MissingDependencyError, match=r"'causalsplat\[field,sam2\]'"):
+    with pytest.raises(MissingDependencyError, match=r"'causalsplat\[sam2\]'"):
         _call(tmp_path, sam_run.images, sam_run.checkpoint, model="sam2.1_hiera_t")
+    monkeypatch.setitem(sys.modules, "torch", None)
+    with pytest.raises(MissingDependencyError,
+                       match=r"needs torch, segment_anything: pip install 'causalsplat\[sam,torch\]'"):  # fmt: skip
+        _call(tmp_path, sam_run.images, sam_run.checkpoint)
     assert not (tmp_path / "out").exists()
 
 
