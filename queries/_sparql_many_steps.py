@@ -11,7 +11,7 @@ each side's scene to one ``?scene`` variable.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Collection, Iterable, Mapping, Sequence
 
 from graph_store.rdf.iris import entity_iri, scene_iri
 from queries._sparql_steps import values
@@ -79,7 +79,7 @@ class ManyPatterns:
     def members(
         self,
         var: str,
-        sets: Mapping[str, frozenset[int]],
+        sets: Mapping[str, Collection[int]],
         scene_ids: Iterable[str],
         scene_var: str | None = None,
     ) -> str:
@@ -90,7 +90,3 @@ class ManyPatterns:
         if scene_var is not None:
             text += f"?{var} csg:inScene ?{scene_var} .\n"
         return text
-
-    def iri_list(self, sets: Mapping[str, Iterable[int]], scene_ids: Iterable[str]) -> str:
-        """``<iri>, <iri>, ...`` of the members of ``sets`` in ``scene_ids``."""
-        return ", ".join(self.iri(sid, x) for sid in scene_ids for x in sorted(sets.get(sid, ())))

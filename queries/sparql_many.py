@@ -376,13 +376,16 @@ class _ManyRun:
         current = 0
         while active := [sid for sid in live if frontier.get(sid)]:
             current += 1
-            iris = self.p.iri_list(known, active)
             resting = sub_select(
                 "DISTINCT ?e", f"{self.p.members('y0', frontier, active)}?e {SUPPORT_PATH} ?y0 .\n"
             )
+            # MINUS, not the per-scene NOT IN lists: an anti-join, where a NOT IN list
+            # compares every candidate with every known entity of every scene
             body = (
-                f"{resting}?e csg:category ?cat .\nFILTER (?e NOT IN ({iris}))\n{not_structural}"
-                f"FILTER NOT EXISTS {{ ?e {SUPPORT_PATH} ?y . FILTER (?y NOT IN ({iris})) }}\n"
+                f"{resting}MINUS {{ {self.p.members('e', known, active)}}}\n"
+                f"?e csg:category ?cat .\n{not_structural}"
+                f"MINUS {{\n{resting}?e {SUPPORT_PATH} ?y .\n"
+                f"MINUS {{ {self.p.members('y', known, active)}}}\n}}\n"
             )
             frontier = self.ids(select_entities(body))
             for sid in active:

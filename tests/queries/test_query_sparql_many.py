@@ -17,7 +17,7 @@ from queries.networkx_executor import NetworkxExecutor
 from queries.sparql_endpoints import OxigraphEndpoint, RdflibEndpoint, SparqlEndpoint
 from queries.sparql_executor import SparqlExecutor
 from queries.sparql_many import run_sparql_many
-from tests.queries.query_strategies import programs, scenes
+from tests.queries.query_strategies import CATEGORIES, TEXTS, programs, scenes
 
 BACKENDS: dict[str, type[OxigraphEndpoint] | type[RdflibEndpoint]] = {
     "oxigraph": OxigraphEndpoint,
@@ -67,6 +67,31 @@ def test_every_scene_matches_its_own_run(backend: str) -> None:
     check()
 
 
+@st.composite
+def removals(draw: st.DrawFn) -> GraphQuery:
+    """What falls when the entities of one category (or one text match) are removed."""
+    pick: dict[str, Any] = (
+        {"op": "filter_category", "inputs": [0], "value": draw(st.sampled_from(CATEGORIES))}
+        if draw(st.booleans())
+        else {"op": "match_text", "inputs": [0], "value": draw(st.sampled_from(TEXTS)), "k": 3}
+    )
+    steps = [{"op": "scene"}, pick, {"op": "fall_if_removed", "inputs": [1]}]
+    steps.append({"op": "fall_if_removed", "inputs": [2]})
+    return GraphQuery.parse({"query_type": "counterfactual", "steps": steps, "answer_step": 2})
+
+
+@pytest.mark.parametrize("backend", ["oxigraph", "rdflib"])
+def test_what_falls_matches_its_own_run(backend: str) -> None:
+    examples = 20 if backend == "oxigraph" else 8
+
+    @settings(max_examples=examples, **_SETTINGS)  # type: ignore[arg-type]
+    @given(graphs=scene_sets(), batch=st.lists(removals(), min_size=3, max_size=3))
+    def check(graphs: list[SceneGraph], batch: list[GraphQuery]) -> None:
+        _check(backend, graphs, batch)
+
+    check()
+
+
 def _counting(base: type[Any]) -> type[Any]:
     class Counting(base):  # type: ignore[misc]
         """A real endpoint that counts the queries it is sent."""
@@ -89,7 +114,7 @@ def _counting(base: type[Any]) -> type[Any]:
 
 
 def _room(scene_id: str, shift: float) -> SceneGraph:
-    """A floor, a table on it, a cup and a book on the table and a spoon in the cup."""
+    """A floor, a table on it and on a book, a cup on the table, a spoon on both."""
 
     def box(i: int, category: str, x: float, z: float, caption: str | None = None) -> Entity:
         x += shift
@@ -110,6 +135,7 @@ def _room(scene_id: str, shift: float) -> SceneGraph:
         Relation(3, 2, RelationType.SUPPORTED_BY),
         Relation(2, 4, RelationType.SUPPORTS),
         Relation(5, 3, RelationType.SUPPORTED_BY),
+        Relation(5, 2, RelationType.SUPPORTED_BY),
         Relation(3, 4, RelationType.NEAR),
     )
     return SceneGraph(SceneMeta(scene_id), ents, rels)
