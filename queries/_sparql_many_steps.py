@@ -33,8 +33,10 @@ class ManyPatterns:
     'VALUES ?e { <https://w3id.org/causalsplat/scene/a/entity/2> }\\n?e csg:inScene ?scene .\\n'
     """
 
-    def __init__(self, scene_ids: Sequence[str]) -> None:
+    def __init__(self, scene_ids: Sequence[str], *, every: bool = False) -> None:
         self.scene_ids = tuple(scene_ids)
+        #: the endpoint holds no other scene, so a whole-scene pattern needs no scene filter
+        self.every = every
         self.scene = {sid: f"<{scene_iri(sid)}>" for sid in self.scene_ids}
         self._prefix = {sid: entity_iri(sid, 0)[:-1] for sid in self.scene_ids}
         self._by_base = {scene_iri(sid): sid for sid in self.scene_ids}
@@ -73,8 +75,14 @@ class ManyPatterns:
         return values(f"?{var}", [self.scene[sid] for sid in scene_ids])
 
     def whole(self, var: str, scene_ids: Iterable[str], scene_var: str) -> str:
-        """``?var`` ranges over the entities of ``scene_ids``, ``?scene_var`` over their scene."""
-        return self.scenes(scene_var, scene_ids) + f"?{scene_var} bot:containsElement ?{var} .\n"
+        """``?var`` ranges over the entities of ``scene_ids``, ``?scene_var`` over their scene.
+
+        With :attr:`every`, over the entities of every scene the endpoint holds: the callers
+        join a whole-scene input with the other inputs within a scene, or read it alone, so
+        a scene left out of ``scene_ids`` for an empty input adds nothing.
+        """
+        contains = f"?{scene_var} bot:containsElement ?{var} .\n"
+        return contains if self.every else self.scenes(scene_var, scene_ids) + contains
 
     def members(
         self,

@@ -205,4 +205,4 @@ def _sparql_many(
     if not ids:
         return {}
     endpoint = endpoint_for([store.load_scene(sid) for sid in ids], backend)
-    return run_sparql_many(endpoint, ids, query, config)
+    return run_sparql_many(endpoint, ids, query, config, all_scenes=True)

@@ -18,11 +18,11 @@ number of scenes:
   ``exists`` (the size of a set in hand, per scene).
 
 The scene facts are one query each for all scenes: the distinct categories, captions and
-attribute pairs (every rule of :mod:`queries.semantics` that picks stored strings looks at
-one string at a time, and ``match_text`` ranks are only compared within a scene, so the
-strings of other scenes change no scene's answer) and each scene's centre (one aggregate
-``GROUP BY ?scene``, written back as a ``VALUES (?scene ?cx ?cy ?cz)`` block of the doubles
-the per-scene executor writes into its query).
+attribute pairs of every scene the endpoint holds (every rule of :mod:`queries.semantics`
+that picks stored strings looks at one string at a time, and ``match_text`` ranks are only
+compared within a scene, so the strings of other scenes change no scene's answer), and
+each scene's centre (one aggregate ``GROUP BY ?scene``, written back as a ``VALUES (?scene
+?cx ?cy ?cz)`` block of the doubles the per-scene executor writes into its query).
 
 SPARQL 1.1 has no window function to keep the first ``k`` rows of each scene, so
 ``match_text``, ``argmin`` and ``argmax`` send the per-scene query without its ``LIMIT``:
@@ -90,11 +90,15 @@ def run_sparql_many(
     scene_ids: Sequence[str],
     program: GraphQuery | str | bytes | dict[str, Any],
     config: QueryConfig = DEFAULT_CONFIG,
+    *,
+    all_scenes: bool = False,
 ) -> dict[str, QueryResult]:
     """``program``'s result on each of ``scene_ids``, whose RDF views ``endpoint`` holds.
 
-    The endpoint may hold other scenes too; queries are limited to the given ones. Raises
-    :class:`~queries.QueryExecutionError` when the engine fails.
+    The endpoint may hold other scenes too, and queries are limited to the given ones;
+    ``all_scenes`` says that it holds no other scene, so whole-scene patterns need no
+    scene filter (a ``VALUES`` block of every scene IRI, which costs Oxigraph a join with
+    every entity). Raises :class:`~queries.QueryExecutionError` when the engine fails.
 
     >>> from queries.sparql_endpoints import endpoint_for
     >>> from graph_store.types import Entity, SceneGraph, SceneMeta
@@ -113,16 +117,20 @@ def run_sparql_many(
     ids = tuple(sorted(set(scene_ids)))
     if not ids:
         return {}
-    return _ManyRun(endpoint, ids, config).run(GraphQuery.parse(program))
+    return _ManyRun(endpoint, ids, config, all_scenes).run(GraphQuery.parse(program))
 
 
 class _ManyRun:
     def __init__(
-        self, endpoint: SparqlEndpoint, scene_ids: tuple[str, ...], config: QueryConfig
+        self,
+        endpoint: SparqlEndpoint,
+        scene_ids: tuple[str, ...],
+        config: QueryConfig,
+        every: bool,
     ) -> None:
         self.ep, self.config = endpoint, config
         self.scene_ids = scene_ids
-        self.p = ManyPatterns(scene_ids)
+        self.p = ManyPatterns(scene_ids, every=every)
         self.whole: set[int] = set()
         self.paths: dict[str, list[SupportPath]] = defaultdict(list)
         self.facts: dict[str, Any] = {}
@@ -180,13 +188,17 @@ class _ManyRun:
     def _all(self, var: str = "e") -> str:
         return self.p.whole(var, self.scene_ids, "scene")
 
+    # The stored strings of every scene the endpoint holds: each rule picks strings one at
+    # a time and ranks are compared within a scene, so other scenes' strings change nothing
+    # (and a scope would cost a join with every entity).
+
     def strings(self, prop: str) -> list[str]:
-        body = f"{self._all()}?e csg:{prop} ?v .\n"
+        body = f"?e csg:{prop} ?v .\n"
         rows = self._fact(prop, f"{PROLOGUE}SELECT DISTINCT ?v WHERE {{\n{body}}}")
         return [str(r[0]) for r in rows]
 
     def attributes(self) -> list[tuple[str, str]]:
-        body = f"{self._all()}?e csg:hasAttribute ?a . ?a csg:key ?k ; csg:value ?v .\n"
+        body = "?e csg:hasAttribute ?a . ?a csg:key ?k ; csg:value ?v .\n"
         rows = self._fact("attr", f"{PROLOGUE}SELECT DISTINCT ?k ?v WHERE {{\n{body}}}")
         return [(str(k), str(v)) for k, v in rows]
 

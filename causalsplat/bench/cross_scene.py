@@ -185,7 +185,7 @@ def _measure_sparql(store: Any, n: int) -> tuple[list[dict[str, Any]], float]:
         program = GraphQuery.from_text(text)
 
         def one(program: GraphQuery = program) -> Any:
-            return run_sparql_many(endpoint, ids, program)
+            return run_sparql_many(endpoint, ids, program, all_scenes=True)
 
         def loop(program: GraphQuery = program) -> Any:
             return [SparqlExecutor(endpoint, sid).run(program) for sid in ids]
