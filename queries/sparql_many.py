@@ -4,18 +4,22 @@ The steps compile as in :mod:`queries.sparql_executor`, but an input set is the 
 every selected scene at once (:mod:`queries._sparql_many_steps`): entity IRIs name their
 scene, so one ``VALUES`` block holds them all and the engine's answer splits into
 per-scene sets by IRI; a whole-scene input is ``VALUES ?scene { <scene> ... } ?scene
-bot:containsElement ?e``. The number of queries depends on the program, never on the
-number of scenes:
+bot:containsElement ?e`` (without the ``VALUES`` block when the endpoint holds only the
+selected scenes, as :func:`queries.run_program_all`'s dataset does). The number of queries
+depends on the program, never on the number of scenes:
 
 * one query per step: ``filter_category``, ``filter_attribute``, ``filter_affordance``,
   ``match_text``, ``relate`` (stored and view-dependent), ``relate_between``, ``argmin``,
   ``argmax`` and ``support_closure``;
 * ``fall_if_removed``: one query per round for all scenes (a scene's round ``r`` reads only
   its own IRIs, so its rounds are those of its own run; a scene whose fixpoint is reached
-  drops out of later rounds), then one query for the fallen entities' supporters;
-* no query: ``scene`` (the selected scenes' entities, read once), ``union``,
-  ``intersect``, ``difference`` (set algebra on IRIs already in hand), ``count`` and
-  ``exists`` (the size of a set in hand, per scene).
+  drops out of later rounds), then one query for the fallen entities' supporters. The
+  entities known to be gone are ``MINUS`` anti-joins rather than the per-scene executor's
+  ``NOT IN`` lists, which would compare every candidate with every scene's removed
+  entities (seconds over 1,500 scans);
+* ``scene``: one query for the entities of all selected scenes, once per run;
+* no query: ``union``, ``intersect``, ``difference`` (set algebra on IRIs already in
+  hand), ``count`` and ``exists`` (the size of a set in hand, per scene).
 
 The scene facts are one query each for all scenes: the distinct categories, captions and
 attribute pairs of every scene the endpoint holds (every rule of :mod:`queries.semantics`
