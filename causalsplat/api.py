@@ -279,8 +279,8 @@ class Store:
         """Run a structured program on every selected scene (all, a glob or a list).
 
         Each scene's result is the one :meth:`Scene.run` gives; ``sql`` answers all scenes
-        with one statement, ``sparql`` runs on one dataset holding them all, ``networkx``
-        scene after scene. The result maps scene ids to results in id order;
+        with one statement, ``sparql`` with one query per step on one dataset holding them
+        all, ``networkx`` scene after scene. The result maps scene ids to results in id order;
         ``.answered()`` keeps the scenes with a non-empty answer.
         """
         from queries import run_program_all

@@ -11,7 +11,8 @@ Scenes are chosen with ``scenes``: ``None`` for every stored scene, a glob (``"s
 * ``"sql"``: one statement for all selected scenes (:mod:`queries.sql_many`), the database
   doing the work once; ``fall_if_removed`` one statement per round for all of them;
 * ``"sparql"``: one Oxigraph (or rdflib) dataset holding every selected scene, loaded
-  once, and the per-scene executor run on it scene after scene;
+  once, and one query per step for all of them (:mod:`queries.sparql_many`);
+  ``fall_if_removed`` one query per round for all of them;
 * ``"networkx"``: the reference, scene after scene in memory.
 
 Every scene's :class:`~queries.QueryResult` is the one :func:`~queries.run_program` gives
@@ -181,7 +182,7 @@ def run_program_all(
         every = len(ids) == len(stored)
         by_scene = run_sql_many(store.engine, ids, query, all_scenes=every, config=config)
     elif executor == "sparql":
-        by_scene = _sparql_loop(store, ids, query, config, sparql_backend)
+        by_scene = _sparql_many(store, ids, query, config, sparql_backend)
     else:
         by_scene = {
             sid: make_executor(store, sid, executor="networkx", config=config).run(query)
@@ -190,18 +191,18 @@ def run_program_all(
     return MultiSceneResult(query, tuple(by_scene[sid] for sid in ids), str(executor))
 
 
-def _sparql_loop(
+def _sparql_many(
     store: GraphStore,
     ids: Sequence[str],
     query: GraphQuery,
     config: QueryConfig,
     backend: SparqlBackendName,
 ) -> dict[str, QueryResult]:
-    """One dataset holding every selected scene, the per-scene executor on each."""
+    """One dataset holding every selected scene, one query per step for all of them."""
     from queries.sparql_endpoints import endpoint_for
-    from queries.sparql_executor import SparqlExecutor
+    from queries.sparql_many import run_sparql_many
 
     if not ids:
         return {}
     endpoint = endpoint_for([store.load_scene(sid) for sid in ids], backend)
-    return {sid: SparqlExecutor(endpoint, sid, config).run(query) for sid in ids}
+    return run_sparql_many(endpoint, ids, query, config, all_scenes=True)

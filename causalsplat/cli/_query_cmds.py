@@ -96,8 +96,9 @@ def query(
     counterfactual programs).
 
     With --all-scenes or --scenes GLOB the program runs on every selected scene (the sql
-    executor answers them all with one statement); the output lists the scenes with a
-    non-empty answer and a count line, --json every scene's result.
+    executor answers them all with one statement, sparql with one query per step); the
+    output lists the scenes with a non-empty answer and a count line, --json every scene's
+    result.
     """
     from causalsplat.api import open_store
     from queries import run_program

@@ -1,5 +1,6 @@
 """Questions across scenes: ``run_program_all`` gives every scene exactly the result of a
-run on that scene alone, on the three executors (SQL on SQLite and PostgreSQL), for random
+run on that scene alone, on the three executors (SQL on SQLite and PostgreSQL, SPARQL on
+Oxigraph and, for the scenes a glob selects, rdflib), for random
 programs over random scenes whose ids need escaping; scene selection by glob and by list;
 empty stores and bad selections."""
 
@@ -74,6 +75,11 @@ def _check(store: GraphStore, graphs: list[SceneGraph], batch: list[GraphQuery])
         sub = run_program_all(store, program, scenes=list(SCENE_IDS[:2]), executor="sql")
         assert sub.scene_ids == SCENE_IDS[:2]
         assert all(sub[sid] == reference[sid].run(program) for sid in SCENE_IDS[:2])
+        sub = run_program_all(
+            store, program, scenes="[ac]*", executor="sparql", sparql_backend="rdflib"
+        )
+        assert sub.scene_ids == (SCENE_IDS[0], SCENE_IDS[2])
+        assert all(r == reference[r.scene_id].run(program) for r in sub.values())
 
 
 def test_every_scene_matches_its_own_run(store: GraphStore) -> None:

@@ -1,5 +1,6 @@
-"""The cross-scene benchmark's smoke run on 20 ScanNet scans: the one-statement path and
-the per-scene loop give equal results for every scan, and the report says so."""
+"""The cross-scene benchmark's smoke run on 20 ScanNet scans: the one-statement SQL path,
+the one-query-per-step SPARQL path and their per-scene loops give equal results for every
+scan, and the report says so."""
 
 from __future__ import annotations
 
@@ -17,10 +18,15 @@ def test_twenty_scans_agree() -> None:
     data = measure((20,), root)
     rows = data["rows"]
     assert {r["program"] for r in rows} == set(PROGRAMS)
+    assert {r["backend"] for r in rows} == {"sqlite", "sparql-oxigraph"}
     assert all(r["scenes"] == 20 and r["differ"] == 0 for r in rows)
-    assert any(r["answered"] > 0 for r in rows)
+    answered = {(r["backend"], r["program"]): r["answered"] for r in rows}
+    assert any(answered.values())
+    assert all(answered["sqlite", p] == answered["sparql-oxigraph", p] for p in PROGRAMS)
+    assert [load["scenes"] for load in data["sparql_load"]] == [20]
     text = _markdown(data)
     assert "Agreement: 0 scene results differ" in text
+    assert "| sparql-oxigraph | 20 |" in text and "Oxigraph: 20 stored scans loaded" in text
 
 
 def test_registered_and_skips_cleanly_without_the_data(
