@@ -21,11 +21,8 @@ names the folder and the stage, chained to the original, and nothing is stored.
 
 from __future__ import annotations
 
-import contextlib
-import importlib
 import resource
 import sys
-import threading
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -290,22 +287,6 @@ def _build(
     )
 
 
-def _import_in_background(module: str) -> None:
-    """Import ``module`` on a daemon thread, so that a later stage finds it loaded.
-
-    The instance stage's HDBSCAN brings scikit-learn and scipy.stats (0.8 s of imports on
-    this project's machines); the training before it runs on one core, so the import
-    overlaps it on another. A module that does not import is left for the stage that
-    needs it to report.
-    """
-
-    def run() -> None:
-        with contextlib.suppress(Exception):  # reported by the stage that imports it
-            importlib.import_module(module)
-
-    threading.Thread(target=run, name=f"import-{module}", daemon=True).start()
-
-
 def check_coverage(folder: SceneFolder, config: BuildConfig) -> Coverage:
     """Measure how the folder's cameras and masks meet its Gaussians; raise
     :class:`CoverageError` when a share is below the config's threshold."""
@@ -347,7 +328,6 @@ def _field_stage(
     try:
         with stages.stage("field"):
             with _bar(config.field.iterations, "field", progress) as tick:
-                _import_in_background("hdbscan")  # for the instance stage
                 field = lift_features(views, config.field, progress=tick)
             with _bar(len(views.masks), "evidence", progress) as tick:
                 evidence = mask_evidence(field, views, progress=tick)

@@ -18,8 +18,7 @@ from contextlib import contextmanager
 def single_threaded_blas() -> Iterator[None]:
     """Within the block numpy's BLAS uses one thread; the setting before is restored.
 
-    Without threadpoolctl (it comes with scikit-learn, which the ``field`` extra installs)
-    the block runs unchanged.
+    Without threadpoolctl (the ``field`` extra installs it) the block runs unchanged.
     """
     try:
         from threadpoolctl import threadpool_limits

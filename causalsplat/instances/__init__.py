@@ -2,7 +2,7 @@
 
 :func:`assign_instances` turns a feature field and its mask features into an
 :class:`InstanceAssignment`; :func:`instance_quality` scores a labelling against ground
-truth (mean best-match IoU, AP25/AP50). numpy / scipy / hdbscan; no torch.
+truth (mean best-match IoU, AP25/AP50). numpy / scipy (numba where it imports); no torch.
 """
 
 from causalsplat.instances.assign import InstanceAssignment, assign_instances, cluster_masks

@@ -73,18 +73,17 @@ def cluster_masks(features: np.ndarray, config: InstanceConfig) -> np.ndarray:
     x = np.asarray(features, dtype=np.float64)
     if x.shape[0] < config.min_cluster_size:
         return np.full(x.shape[0], -1, dtype=np.int64)
-    import hdbscan
+    from causalsplat.instances.density import hdbscan_labels
 
     def run(single: bool) -> np.ndarray:
-        model = hdbscan.HDBSCAN(
+        return hdbscan_labels(
+            x,
             min_cluster_size=config.min_cluster_size,
             min_samples=config.min_samples,
-            cluster_selection_method=config.selection,
-            cluster_selection_epsilon=config.selection_epsilon,
+            selection=config.selection,
+            epsilon=config.selection_epsilon,
             allow_single_cluster=single,
-            metric="euclidean",
         )
-        return np.asarray(model.fit(x).labels_, dtype=np.int64)
 
     labels = run(False)
     if labels.size and labels.max() < 0:

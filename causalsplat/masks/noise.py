@@ -37,7 +37,6 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import ndimage
 
 from causalsplat.errors import CausalSplatError
 from causalsplat.masks.types import MaskSet
@@ -147,6 +146,8 @@ def _merge_adjacent(
 ) -> list[_Mask]:
     if len(items) < 2 or p <= 0:
         return items
+    from scipy import ndimage  # here: a build imports this package, never the noise
+
     structure = ndimage.generate_binary_structure(2, 1)
     flat = np.stack([m.pixels.reshape(-1) for m in items]).astype(np.float32)
     grown = np.stack(
@@ -223,6 +224,8 @@ def _jitter(
     r0, r1 = max(0, rows.min() - pad), min(h, rows.max() + pad + 1)
     c0, c1 = max(0, cols.min() - pad), min(w, cols.max() + pad + 1)
     crop = mask[r0:r1, c0:c1]
+    from scipy import ndimage
+
     inside = ndimage.distance_transform_edt(crop)
     outside = ndimage.distance_transform_edt(~crop)
     signed = np.where(crop, 0.5 - inside, outside - 0.5)
