@@ -42,6 +42,22 @@ with open_store(sys.argv[1]) as store:
 print(json.dumps({"seconds": time.perf_counter() - start, "peak_rss_mib": _peak_rss_mib()}))
 """
 
+#: One scene built warm on two threads and on one, in a fresh process: what the loop's
+#: builds gain from the second core bounds what single-thread workers can gain over it.
+_THREADS = """
+import dataclasses, json, sys, time
+from causalsplat.build import BuildConfig
+from causalsplat.build.pipeline import build_scene
+config = BuildConfig.from_file(sys.argv[1])
+seconds = {}
+for threads in (2, 2, 1, 2, 1):  # the first build warms the process up
+    raster = dataclasses.replace(config.raster, threads=threads)
+    start = time.perf_counter()
+    build_scene(sys.argv[2], config=dataclasses.replace(config, raster=raster), cache_dir=False)
+    seconds.setdefault(threads, []).append(time.perf_counter() - start)
+print(json.dumps({str(t): min(v[1:] if t == 2 else v) for t, v in seconds.items()}))
+"""
+
 
 def _scenes(work: Path, size: str, n: int) -> list[Path]:
     from causalsplat.synth import synth_scene
@@ -77,6 +93,16 @@ def _loop(work: Path, folders: list[Path], config: Path) -> dict[str, Any]:
     doc = json.loads(proc.stdout)
     return {"label": "sequential loop of build", "workers": 1, "built": len(folders),
             "failed": 0, "url": url, **doc}  # fmt: skip
+
+
+def _one_scene(folder: Path, config: Path) -> dict[str, float]:
+    """Seconds of one warm build of ``folder`` on 2 threads and on 1 (best of two each)."""
+    argv = [sys.executable, "-c", _THREADS, str(config), str(folder)]
+    proc = subprocess.run(argv, capture_output=True, text=True, check=False,
+                          env={**os.environ, "PYTHONWARNINGS": "ignore"})  # fmt: skip
+    if proc.returncode != 0:
+        return {}
+    return {f"threads_{k}": v for k, v in json.loads(proc.stdout).items()}
 
 
 def _batch(work: Path, folders: list[Path], config: Path, workers: int) -> dict[str, Any]:
@@ -135,6 +161,7 @@ def _runs(
                                      {"field": {"iterations": iterations}}))  # fmt: skip
         rows = [_loop(work, folders, config)]
         rows += [_batch(work, folders, config, w) for w in counts]
+        rows[0].update(_one_scene(folders[0], config))
         reference = _signatures(rows[0]["url"]) if "error" not in rows[0] else {}
         for row in rows:
             if "error" in row:
@@ -164,4 +191,14 @@ def _table(size: str, n: int, rows: list[dict[str, Any]]) -> list[str]:
             f"| {r['label']} | {r['seconds']:.1f} | {r['scenes_per_hour']:.1f} | {ratio} | "
             f"{r['peak_rss_mib']:.0f} | {r['failed']} | {r['differing']} of {n} |"
         )
+    two, one = rows[0].get("threads_2"), rows[0].get("threads_1")
+    if two and one:
+        md += [
+            "",
+            f"One of these scenes alone, warm: {two:.2f} s on two threads (as each build of the "
+            f"loop), {one:.2f} s on one (as in each of two workers). Two single-thread workers "
+            f"are therefore bounded at 2 x {two:.2f} / {one:.2f} = **{2 * two / one:.2f}x** the "
+            "loop, before their start, their first scene's warm-up and the two processes "
+            "sharing the memory bus.",
+        ]
     return md

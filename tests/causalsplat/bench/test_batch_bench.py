@@ -17,3 +17,7 @@ def test_batch_bench_quick_run() -> None:
         assert row["built"] == 2 and row["failed"] == 0 and row["differing"] == 0
         assert row["scenes_per_hour"] > 0 and row["peak_rss_mib"] > 0
     assert "| build-many --workers 2 |" in report.markdown and "0 of 2 |" in report.markdown
+    loop = rows[0]
+    assert loop["threads_1"] > 0 and loop["threads_2"] > 0
+    bound = 2 * loop["threads_2"] / loop["threads_1"]
+    assert f"= **{bound:.2f}x** the loop" in report.markdown
