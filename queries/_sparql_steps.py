@@ -14,12 +14,25 @@ from __future__ import annotations
 from graph_store.rdf.iris import entity_iri, scene_iri
 from graph_store.rdf.namespace import PREFIXES
 from graph_store.types import RelationType
+from queries.model import Op
 from queries.semantics import Algebra
 
 CSG = PREFIXES["csg"]
 XSD_DOUBLE = PREFIXES["xsd"] + "double"
 PROLOGUE = f"PREFIX csg: <{CSG}>\nPREFIX bot: <{PREFIXES['bot']}>\n"
 SUPPORT_PATH = "(csg:supported_by|^csg:supports)"
+XY = ("centroidX", "centroidY")
+XYZ = ("centroidX", "centroidY", "centroidZ")
+BOX = ("minX", "minY", "minZ", "maxX", "maxY", "maxZ")
+#: Ops whose result is empty when any input is (the executors then send no query: rdflib
+#: mis-evaluates some patterns that can have no solution).
+EMPTY_IN_EMPTY_OUT = frozenset(
+    {
+        Op.FILTER_CATEGORY, Op.FILTER_ATTRIBUTE, Op.FILTER_AFFORDANCE, Op.MATCH_TEXT,
+        Op.RELATE, Op.RELATE_BETWEEN, Op.ARGMIN, Op.ARGMAX, Op.INTERSECT,
+        Op.SUPPORT_CLOSURE, Op.FALL_IF_REMOVED,
+    }
+)  # fmt: skip
 
 _ECHAR = {
     ord("\\"): "\\\\",

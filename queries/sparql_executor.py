@@ -23,9 +23,13 @@ from typing import Any
 from graph_store.types import SceneGraph
 from queries._base import Executor, RunValue, run_sets
 from queries._sparql_steps import (
+    BOX,
+    EMPTY_IN_EMPTY_OUT,
     PROLOGUE,
     SPARQL,
     SUPPORT_PATH,
+    XY,
+    XYZ,
     Patterns,
     double,
     literal,
@@ -52,19 +56,6 @@ from queries.semantics import (
     view_relation,
 )
 from queries.sparql_endpoints import SparqlBackendName, SparqlEndpoint, endpoint_for
-
-_XY = ("centroidX", "centroidY")
-#: Ops whose result is empty when any input is (the executor then sends no query: rdflib
-#: mis-evaluates some patterns that can have no solution).
-_EMPTY_IN_EMPTY_OUT = frozenset(
-    {
-        Op.FILTER_CATEGORY, Op.FILTER_ATTRIBUTE, Op.FILTER_AFFORDANCE, Op.MATCH_TEXT,
-        Op.RELATE, Op.RELATE_BETWEEN, Op.ARGMIN, Op.ARGMAX, Op.INTERSECT,
-        Op.SUPPORT_CLOSURE, Op.FALL_IF_REMOVED,
-    }
-)  # fmt: skip
-_XYZ = ("centroidX", "centroidY", "centroidZ")
-_BOX = ("minX", "minY", "minZ", "maxX", "maxY", "maxZ")
 
 
 class SparqlExecutor(Executor):
@@ -138,7 +129,7 @@ class SparqlExecutor(Executor):
             f"(MIN(?e_{lo}) AS ?{lo}) (MAX(?e_{hi}) AS ?{hi})"
             for lo, hi in (("minX", "maxX"), ("minY", "maxY"), ("minZ", "maxZ"))
         )
-        body = self.patterns.in_scene("e") + self.patterns.coords("e", *_BOX)
+        body = self.patterns.in_scene("e") + self.patterns.coords("e", *BOX)
         rows = self._cached("centre", f"{PROLOGUE}SELECT {aggs} WHERE {{\n{body}}}")
         ext = rows[0] if rows and rows[0][0] is not None else (0.0,) * 6
         x, y, z = (
@@ -178,7 +169,7 @@ class _SparqlRun:
         def handler(op: Op) -> Any:
             def call(i: int, step: Step, ins: list[frozenset[int]]) -> RunValue:
                 self.step_inputs = step.inputs
-                if op in _EMPTY_IN_EMPTY_OUT and not all(ins):
+                if op in EMPTY_IN_EMPTY_OUT and not all(ins):
                     return frozenset()  # no query can find anything
                 return h[op](i, step, ins)  # type: ignore[no-any-return]
 
@@ -279,12 +270,12 @@ class _SparqlRun:
             target = (double(vp.target[0]), double(vp.target[1]))
         s_xy, a_xy = ("?e_centroidX", "?e_centroidY"), ("?a_centroidX", "?a_centroidY")
         cond = view_relation(SPARQL, rel, s_xy, a_xy, eye, target)
-        body = self.located("e", 0, ins[0], *_XY) + self.located("a", 1, ins[1], *_XY)
+        body = self.located("e", 0, ins[0], *XY) + self.located("a", 1, ins[1], *XY)
         return self.ids(select_entities(f"{body}FILTER {cond}\n"))
 
     def _between(self, i: int, step: Step, ins: list[frozenset[int]]) -> RunValue:
         names = ("e", "a", "b")
-        body = "".join(self.located(v, n, ins[n], *_XY) for n, v in enumerate(names))
+        body = "".join(self.located(v, n, ins[n], *XY) for n, v in enumerate(names))
         xy = [(f"?{v}_centroidX", f"?{v}_centroidY") for v in names]
         cond = between(SPARQL, xy[0], xy[1], xy[2], self.config.between_lateral_ratio)
         return self.ids(select_entities(f"{body}FILTER {cond}\n"))
@@ -297,12 +288,12 @@ class _SparqlRun:
         if not metric.is_distance:
             lo, hi = ("?e_minX", "?e_minY", "?e_minZ"), ("?e_maxX", "?e_maxY", "?e_maxZ")
             value = metric_value(SPARQL, metric.value, centroid, lo, hi)
-            body = self.located("e", 0, ins[0], "localId", *_XYZ, *_BOX)
+            body = self.located("e", 0, ins[0], "localId", *XYZ, *BOX)
             keyed = f"{body}BIND (({value}) AS ?v)\n"
         elif len(ins) == 2:
             a_xyz = ("?a_centroidX", "?a_centroidY", "?a_centroidZ")
-            pairs = self.located("e", 0, ins[0], "localId", *_XYZ)
-            pairs += self.located("a", 1, ins[1], *_XYZ)
+            pairs = self.located("e", 0, ins[0], "localId", *XYZ)
+            pairs += self.located("a", 1, ins[1], *XYZ)
             d = squared_distance(SPARQL, centroid, a_xyz, horizontal=flat)
             keyed = (  # BOUND: see _match_text
                 f"{{ SELECT ?e ?e_localId (MIN({d}) AS ?v) WHERE {{\n{pairs}FILTER (?e != ?a)\n}}"
@@ -311,7 +302,7 @@ class _SparqlRun:
         else:
             c = tuple(double(x) for x in self.x.centre())
             d = squared_distance(SPARQL, centroid, (c[0], c[1], c[2]), horizontal=flat)
-            keyed = f"{self.located('e', 0, ins[0], 'localId', *_XYZ)}BIND ({d} AS ?v)\n"
+            keyed = f"{self.located('e', 0, ins[0], 'localId', *XYZ)}BIND ({d} AS ?v)\n"
         order = "?v" if step.op is Op.ARGMIN else "DESC(?v)"
         text = (
             f"{PROLOGUE}SELECT ?e ?v WHERE {{\n{keyed}}}"

@@ -50,9 +50,13 @@ from typing import Any
 from queries._base import RunValue, as_set, step_value
 from queries._sparql_many_steps import ByScene, ManyPatterns
 from queries._sparql_steps import (
+    BOX,
+    EMPTY_IN_EMPTY_OUT,
     PROLOGUE,
     SPARQL,
     SUPPORT_PATH,
+    XY,
+    XYZ,
     Patterns,
     double,
     literal,
@@ -79,11 +83,8 @@ from queries.semantics import (
     view_relation,
 )
 from queries.sparql_endpoints import SparqlEndpoint
-from queries.sparql_executor import _EMPTY_IN_EMPTY_OUT, SparqlExecutor
+from queries.sparql_executor import SparqlExecutor
 
-_XY = ("centroidX", "centroidY")
-_XYZ = ("centroidX", "centroidY", "centroidZ")
-_BOX = ("minX", "minY", "minZ", "maxX", "maxY", "maxZ")
 _CENTRE = ("?cx", "?cy", "?cz")
 
 Handler = Callable[[int, Step, list[ByScene], list[str]], Mapping[str, RunValue]]
@@ -164,7 +165,7 @@ class _ManyRun:
             self.step_inputs = step.inputs
             ins = [{sid: as_set(steps[j][sid]) for sid in self.scene_ids} for j in step.inputs]
             live = list(self.scene_ids)
-            if step.op in _EMPTY_IN_EMPTY_OUT:  # empty there, no query can find anything
+            if step.op in EMPTY_IN_EMPTY_OUT:  # empty there, no query can find anything
                 live = [sid for sid in live if all(s[sid] for s in ins)]
             out = h[step.op](i, step, ins, live) if live else {}
             steps.append({sid: out.get(sid, frozenset()) for sid in self.scene_ids})
@@ -213,7 +214,7 @@ class _ManyRun:
                 f"(MIN(?e_{lo}) AS ?{lo}) (MAX(?e_{hi}) AS ?{hi})"
                 for lo, hi in (("minX", "maxX"), ("minY", "maxY"), ("minZ", "maxZ"))
             )
-            body = self._all() + Patterns.coords("e", *_BOX)
+            body = self._all() + Patterns.coords("e", *BOX)
             text = f"{PROLOGUE}SELECT ?scene {aggs} WHERE {{\n{body}}} GROUP BY ?scene"
             by_iri = {iri[1:-1]: sid for sid, iri in self.p.scene.items()}
             centres = {}
@@ -326,7 +327,7 @@ class _ManyRun:
         rel = step.relation
         assert rel is not None
         vp = step.viewpoint
-        body = self.located("e", 0, ins, live, *_XY) + self.located("a", 1, ins, live, *_XY)
+        body = self.located("e", 0, ins, live, *XY) + self.located("a", 1, ins, live, *XY)
         if vp is None:
             body += self.centre_values(live, 2)
             eye, target = (_CENTRE[0], _CENTRE[1]), ("?a_centroidX", "?a_centroidY")
@@ -339,7 +340,7 @@ class _ManyRun:
 
     def _between(self, i: int, step: Step, ins: list[ByScene], live: list[str]) -> ByScene:
         names = ("e", "a", "b")
-        body = "".join(self.located(v, n, ins, live, *_XY) for n, v in enumerate(names))
+        body = "".join(self.located(v, n, ins, live, *XY) for n, v in enumerate(names))
         xy = [(f"?{v}_centroidX", f"?{v}_centroidY") for v in names]
         cond = between(SPARQL, xy[0], xy[1], xy[2], self.config.between_lateral_ratio)
         return self.ids(select_entities(f"{body}FILTER {cond}\n"))
@@ -352,12 +353,12 @@ class _ManyRun:
         if not metric.is_distance:
             lo, hi = ("?e_minX", "?e_minY", "?e_minZ"), ("?e_maxX", "?e_maxY", "?e_maxZ")
             value = metric_value(SPARQL, metric.value, centroid, lo, hi)
-            body = self.located("e", 0, ins, live, "localId", *_XYZ, *_BOX)
+            body = self.located("e", 0, ins, live, "localId", *XYZ, *BOX)
             keyed = f"{body}BIND (({value}) AS ?v)\n"
         elif len(ins) == 2:
             a_xyz = ("?a_centroidX", "?a_centroidY", "?a_centroidZ")
-            pairs = self.located("e", 0, ins, live, "localId", *_XYZ)
-            pairs += self.located("a", 1, ins, live, *_XYZ)
+            pairs = self.located("e", 0, ins, live, "localId", *XYZ)
+            pairs += self.located("a", 1, ins, live, *XYZ)
             d = squared_distance(SPARQL, centroid, a_xyz, horizontal=flat)
             keyed = (  # BOUND: see _match_text
                 f"{{ SELECT ?e ?e_localId (MIN({d}) AS ?v) WHERE {{\n{pairs}FILTER (?e != ?a)\n}}"
@@ -365,7 +366,7 @@ class _ManyRun:
             )
         else:
             d = squared_distance(SPARQL, centroid, _CENTRE, horizontal=flat)
-            body = self.located("e", 0, ins, live, "localId", *_XYZ) + self.centre_values(live, 3)
+            body = self.located("e", 0, ins, live, "localId", *XYZ) + self.centre_values(live, 3)
             keyed = f"{body}BIND ({d} AS ?v)\n"
         order = "?v" if step.op is Op.ARGMIN else "DESC(?v)"
         text = f"{PROLOGUE}SELECT ?e ?v WHERE {{\n{keyed}}} ORDER BY {order} ?e_localId"
