@@ -236,8 +236,8 @@ def test_a_missing_package_names_the_extra(
     with pytest.raises(MissingDependencyError, match=r"'causalsplat\[sam2\]'"):
         _call(tmp_path, sam_run.images, sam_run.checkpoint, model="sam2.1_hiera_t")
     monkeypatch.setitem(sys.modules, "torch", None)
-    with pytest.raises(MissingDependencyError,
-                       match=r"needs torch, segment_anything: pip install 'causalsplat\[sam,torch\]'"):  # fmt: skip
+    wanted = r"needs torch, segment_anything: pip install 'causalsplat\[sam,torch\]'"
+    with pytest.raises(MissingDependencyError, match=wanted):
         _call(tmp_path, sam_run.images, sam_run.checkpoint)
     assert not (tmp_path / "out").exists()
 
