@@ -4,6 +4,7 @@ scan, and the report says so."""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
@@ -18,7 +19,11 @@ def test_twenty_scans_agree() -> None:
     data = measure((20,), root)
     rows = data["rows"]
     assert {r["program"] for r in rows} == set(PROGRAMS)
-    assert {r["backend"] for r in rows} == {"sqlite", "sparql-oxigraph"}
+    server = os.environ.get("CAUSALSPLAT_BENCH_POSTGRES_URL") or os.environ.get(
+        "CAUSALSPLAT_TEST_POSTGRES_URL"
+    )
+    with_server = {"postgresql"} if server else set()
+    assert {r["backend"] for r in rows} == {"sqlite", "sparql-oxigraph"} | with_server
     assert all(r["scenes"] == 20 and r["differ"] == 0 for r in rows)
     answered = {(r["backend"], r["program"]): r["answered"] for r in rows}
     assert any(answered.values())
