@@ -61,8 +61,9 @@ from graph_store import SceneGraph, SceneMeta
 
 #: The masks read from the folder may keep 1 / _MASK_SHARE of the memory budget.
 _MASK_SHARE = 8
-#: Bumped when a cached stage's meaning changes, so old cache files are not reused.
-CACHE_VERSION = 1
+#: Bumped when a cached stage's meaning changes, so old cache files are not reused
+#: (2: masks reduced for ``image_scale < 1`` by a strict majority).
+CACHE_VERSION = 2
 
 
 @dataclass(frozen=True, slots=True)
