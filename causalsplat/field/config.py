@@ -42,6 +42,12 @@ class FieldConfig:
         margin: m, negatives are pushed to cosine similarity at most ``margin`` (0.03).
         hard_negative: τ, a negative pixel with similarity above this is always kept (0.5).
         negative_weight: λ, weight of the negative term against the positive one.
+        nested_share: two masks of a view count as one inside the other (a SAM part and
+            its whole), and neither is a negative of the other, when they share more than
+            this share of the smaller one's pixels. 0: any shared pixel, which also spares
+            neighbouring masks whose boundaries overlap by a pixel or two, as real and
+            noisy masks do; on the masks of scene0000_00 prepared at 1000x750 that kept
+            neighbouring objects together (docs/benchmarks.md, "Nested masks").
         min_mask_pixels: masks smaller than this take no part (a mask of 1 px still works
             when this is 1).
         min_pixel_alpha: mask pixels where the scene's accumulated opacity is below this
@@ -62,6 +68,7 @@ class FieldConfig:
     margin: float = 0.03
     hard_negative: float = 0.5
     negative_weight: float = 1.0
+    nested_share: float = 0.5
     min_mask_pixels: int = 4
     min_pixel_alpha: float = 0.5
     min_opacity: float = 1.0 / 255.0
@@ -91,6 +98,7 @@ _ALLOWED: dict[str, Allowed] = {
     "margin": Interval(-1, 1, high_open=True),
     "hard_negative": Interval(-1, 1),
     "negative_weight": Interval(0),
+    "nested_share": Interval(0, 1),
     "min_mask_pixels": Interval(1, integer=True),
     "min_pixel_alpha": Interval(0, 1, high_open=True),
     "min_opacity": Interval(0, 1, high_open=True),

@@ -9,11 +9,12 @@ weights ``W_m``:
 * prototype ``p_m = Norm(sum_x W_m(x) F̂(x))``;
 * positive term ``L_pos(m) = sum_x W_m(x) (1 - F̂(x)·p_m) / sum_x W_m(x)``, which equals
   ``1 - |sum_x W_m(x) F̂(x)| / sum_x W_m(x)`` and is computed that way;
-* negatives: covered pixels outside ``m`` and outside every mask that overlaps ``m``
-  (nested or overlapping SAM masks are not pushed apart). With ``S(x) = F̂(x)·p_m``, a
-  negative is kept when ``u < N_pos / N_neg`` (``u ~ U(0, 1)``: balances the counts) or
-  ``S(x) > τ`` (hard negatives are always kept); ``L_neg(m)`` is the mean of
-  ``max(0, S(x) - margin)`` over the kept ones;
+* negatives: covered pixels outside ``m`` and outside every mask nested with ``m``, i.e.
+  sharing more than ``FieldConfig.nested_share`` of the smaller one's pixels (a SAM part
+  and its whole are not pushed apart; neighbours whose boundaries overlap are). With
+  ``S(x) = F̂(x)·p_m``, a negative is kept when ``u < N_pos / N_neg`` (``u ~ U(0, 1)``:
+  balances the counts) or ``S(x) > τ`` (hard negatives are always kept); ``L_neg(m)`` is
+  the mean of ``max(0, S(x) - margin)`` over the kept ones;
 * loss: mean over masks of ``L_pos + λ L_neg``, minimised by Adam on ``f``.
 
 Sampling makes a step cost the same at any image size: on scene0000_00 (320x240, 81k
@@ -54,10 +55,15 @@ class _ViewTerms:
     n_pos: np.ndarray  # (M,) float32 pixels per mask
 
 
-def mask_overlap(vm: ViewMasks) -> np.ndarray:
-    """(M, M) bool: the masks of ``vm`` that share a pixel (each mask with itself)."""
-    member = (vm.weights > 0).astype(np.float32)
-    return np.asarray((member @ member.T).toarray() > 0)
+def mask_overlap(vm: ViewMasks, share: float = 0.0) -> np.ndarray:
+    """(M, M) bool: the masks of ``vm`` nested with each other: sharing more than ``share``
+    of the smaller one's pixels (0: any pixel). Each mask is nested with itself."""
+    member = (vm.weights > 0).astype(np.float64)
+    shared = np.asarray((member @ member.T).toarray())
+    size = np.diag(shared).copy()
+    nested = shared > share * np.minimum(size[:, None], size[None, :])
+    np.fill_diagonal(nested, True)
+    return nested
 
 
 def _view_terms(
@@ -66,7 +72,8 @@ def _view_terms(
     """The loss terms of ``vm`` on its covered pixels, or on ``vm.pixels[sample]``.
 
     With a sample, masks that have no pixel in it take no part. ``overlap``: the view's
-    :func:`mask_overlap`, when the caller keeps it between steps.
+    :func:`mask_overlap` at the config's ``nested_share`` (the caller keeps it between
+    steps); by default masks sharing any pixel.
     """
     pixels = vm.pixels if sample is None else vm.pixels[sample]
     if overlap is None:
@@ -208,7 +215,7 @@ def _train(
                 sample_rng.choice(vm.pixels.shape[0], config.pixels_per_step, replace=False)
             )
         if v not in overlaps:
-            overlaps[v] = mask_overlap(vm)
+            overlaps[v] = mask_overlap(vm, config.nested_share)
         terms = _view_terms(vm, sample, overlaps[v])
         contrib = contributors[v]
         rendered = contrib.composite_rows(terms.pixels, feats)

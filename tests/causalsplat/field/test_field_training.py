@@ -117,6 +117,26 @@ def _view(seed: int) -> tuple[MaskSet, np.ndarray]:
     return MaskSet("v", masks), rng.choice(12 * 16, 12 * 16, replace=False)
 
 
+def test_masks_are_nested_when_they_share_more_than_the_share_of_the_smaller_one() -> None:
+    masks = np.zeros((4, 20, 20), dtype=bool)
+    masks[0, :, :11] = True  # the left half and one column: 220 px
+    masks[1, :, 10:] = True  # the right half, 200 px: shares column 10 (20 px) with it
+    masks[2, 2:8, 2:8] = True  # 36 px inside the left half: a part and its whole
+    masks[3, 2:8, 8:14] = True  # 36 px: 18 in the left half, 24 in the right one
+    vm = view_masks(MaskSet("v", masks), 0, FieldConfig(), np.random.default_rng(0))
+    assert vm.n_masks == 4
+    any_pixel = mask_overlap(vm)
+    assert np.array_equal(any_pixel, mask_overlap(vm, 0.0))
+    assert any_pixel[0].all() and any_pixel[1, 3] and not any_pixel[1, 2] and not any_pixel[2, 3]
+    nested = mask_overlap(vm, 0.5)
+    assert np.array_equal(nested, nested.T) and nested.diagonal().all()
+    assert not nested[0, 1]  # neighbours: 20 of 200 px
+    assert nested[0, 2]  # the part lies whole inside
+    assert not nested[0, 3] and nested[1, 3]  # 18 of 36 is not more than half; 24 is
+    assert mask_overlap(vm, 0.6)[1, 3] and not mask_overlap(vm, 0.7)[1, 3]  # 24 / 36
+    assert np.array_equal(mask_overlap(vm, 1.0), np.eye(4, dtype=bool))
+
+
 @pytest.mark.parametrize("seed", range(5))
 def test_sampled_terms_are_the_full_terms_on_the_sample(seed: int) -> None:
     maskset, _ = _view(seed)
