@@ -11,8 +11,8 @@ shares of a pixel sum to at most 1, and a pixel split half and half goes to neit
 training treats masks that share a pixel as parts of one another, never pushing them
 apart: on a synthetic room at 640x480 reduced to 320x240, exact (disjoint) masks came
 out with 1,356 overlapping pairs, and neighbouring objects merged (docs/benchmarks.md,
-"Scale"). Every stage after the folder read sees only the scaled views; the rasterizer's
-work and the views' memory fall with ``s ** 2``.
+"Masks reduced by a strict majority"). Every stage after the folder read sees only the
+scaled views; the rasterizer's work and the views' memory fall with ``s ** 2``.
 
 >>> import numpy as np
 >>> from causalsplat.masks import MaskSet
