@@ -4,8 +4,8 @@
 ``("facing", "the", "tv", ",", "pick", "the", "chair", "that", "is", "left", "of", "it")``.
 Hyphens and slashes split words (``left-hand`` -> ``left hand``), ``'s`` after ``that`` /
 ``it`` / ``there`` / ``what`` / ``which`` becomes ``is``, other possessive ``'s`` is dropped,
-and ``n't`` becomes ``not``. Commas, semicolons and sentence ends are kept as ``,`` and
-``.`` (clause boundaries); a question mark is kept as ``?``.
+and ``n't`` becomes ``not``. Commas, semicolons, colons and sentence ends are kept as ``,``
+and ``.`` (clause boundaries); a question mark is kept as ``?``.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from __future__ import annotations
 import re
 import unicodedata
 
-_WORD = re.compile(r"[a-z0-9]+(?:'[a-z]+)?|[,;.!?]")
+_WORD = re.compile(r"[a-z0-9]+(?:'[a-z]+)?|[,;:.!?]")
 _ABBREVIATIONS = {"t.v.": "tv", "t.v": "tv", "e.g.": "", "i.e.": "", "w/": "with "}
 _IS_AFTER = frozenset({"that", "it", "there", "what", "which", "here", "who", "where", "he"})
 NUMBER_WORDS: dict[str, int] = {
@@ -39,7 +39,7 @@ def tokenize(text: str) -> tuple[str, ...]:
     """The tokens of ``text`` (module docstring)."""
     out: list[str] = []
     for raw in _WORD.findall(normalise(text)):
-        if raw in ("!", ";"):
+        if raw in ("!", ";", ":"):
             out.append("." if raw == "!" else ",")
             continue
         word, _, suffix = raw.partition("'")

@@ -14,6 +14,7 @@ import itertools
 from dataclasses import dataclass, field, replace
 
 from causalsplat.reason import _grammar as g
+from causalsplat.reason._conditions import split_condition
 from causalsplat.reason._items import Item, Modifier, read_items
 from causalsplat.reason._mentions import CategoryIndex, Mention
 from causalsplat.reason._text import tokenize
@@ -123,6 +124,9 @@ class Instruction:
 def parse_instruction(text: str, index: CategoryIndex) -> Instruction:
     """Stage 1 (module docstring)."""
     tokens = tokenize(text)
+    condition = split_condition(tokens)
+    if condition is not None:
+        return _counterfactual(text, tokens, condition, index)
     view_tokens, main_tokens = _split_viewpoint(tokens)
     viewpoint, standing = _viewpoint(view_tokens, index)
     items = read_items(main_tokens, index, view_tokens)
@@ -169,6 +173,22 @@ def parse_instruction(text: str, index: CategoryIndex) -> Instruction:
         kind = "refer"
     closure = kind == "set" and bool(g.CLOSURE_TRIGGERS.search(joined))
     return Instruction(text, tokens, kind, target, viewpoint=viewpoint, standing_at=standing,
+                       closure=closure)  # fmt: skip
+
+
+def _counterfactual(
+    text: str,
+    tokens: tuple[str, ...],
+    condition: tuple[tuple[str, ...], tuple[str, ...]],
+    index: CategoryIndex,
+) -> Instruction:
+    """A counterfactual whose condition clause was found (:mod:`._conditions`), in either
+    order: what the condition removes, and whether the question asks for everything
+    stacked on it."""
+    removed_tokens, question = condition
+    target = _Reader(read_items(removed_tokens, index), None, removed_tokens).read()
+    closure = bool(g.CLOSURE_TRIGGERS.search(" ".join(question)))
+    return Instruction(text, tokens, "counterfactual", None, removed=_removed(target),
                        closure=closure)  # fmt: skip
 
 

@@ -1,0 +1,161 @@
+"""Counterfactual conditions in any word order: the clause that removes something.
+
+A counterfactual is a question about the scene after something is taken away or gives
+way. The condition may come first ("if the bed is removed, what falls?") or last ("what
+falls if the bed is removed?"), open with any conditional subordinator ("if", "when",
+"once", "suppose", "imagine", "in case"...) and use any verb of removal ("remove", "take
+away", "drag out", "haul away", "rip out", "get rid of") or of collapse ("give way",
+"collapse", "break", "cave in"). Verbs are matched by lemma, so tense and number do not
+matter ("someone drags the table out", "the tub was ripped out", "the shelf gave way").
+
+The verbs are general lexical knowledge (the removal and collapse senses of common
+English verbs, with the particles they need), not phrasings from any evaluation file.
+
+>>> split_condition(tuple("what falls if someone drags the table out ?".split()))
+(('the', 'table'), ('what', 'falls', '?'))
+>>> split_condition(tuple("if the shelf gave way , what drops ?".split()))
+(('the', 'shelf'), ('what', 'drops', '?'))
+>>> split_condition(tuple("suppose the lamp on the desk were taken away".split()))
+(('the', 'lamp', 'on', 'the', 'desk'), ())
+>>> split_condition(tuple("what is on the table if i look from the door".split())) is None
+True
+"""
+
+from __future__ import annotations
+
+#: Words that open a condition clause (the first token of a two-word one is the key).
+SUBORDINATORS = frozenset({"if", "when", "once", "after", "suppose", "supposing", "imagine",
+                           "assuming", "assume", "should", "whenever", "say"})  # fmt: skip
+#: Two-word openers: "in case", "what if" (the "what" is not the question's subject).
+_OPENERS_2 = frozenset({("in", "case"), ("what", "if"), ("provided", "that")})
+
+#: Irregular forms -> lemma.
+_IRREGULAR = {
+    "took": "take", "taken": "take", "broke": "break", "broken": "break", "tore": "tear",
+    "torn": "tear", "gave": "give", "given": "give", "fell": "fall", "fallen": "fall",
+    "got": "get", "gotten": "get", "threw": "throw", "thrown": "throw", "drew": "draw",
+    "drawn": "draw", "stole": "steal", "stolen": "steal", "sold": "sell", "shook": "shake",
+    "caved": "cave", "went": "go", "blew": "blow", "blown": "blow",
+    "hauled": "haul", "ripped": "rip", "dragged": "drag", "wheeled": "wheel",
+}  # fmt: skip
+
+#: Verbs that remove or destroy their object (or subject, in the passive) on their own.
+_REMOVE_ALONE = frozenset({
+    "remove", "delete", "eliminate", "disappear", "vanish", "dismantle", "disassemble",
+    "demolish", "destroy", "uninstall", "detach", "unmount", "steal", "sell", "discard",
+    "collapse", "crumble", "break", "shatter", "snap", "buckle", "topple", "smash",
+    "evaporate", "relocate", "displace", "extract", "withdraw", "erase", "obliterate",
+    "scrap", "trash", "ditch", "donate", "missing", "absent", "gone",
+})  # fmt: skip
+#: Verbs of moving that remove only with a particle ("take away", "drag out").
+_MOVE = frozenset({
+    "take", "drag", "haul", "rip", "pull", "tear", "carry", "move", "lift", "yank", "wheel",
+    "push", "cart", "clear", "throw", "toss", "knock", "kick", "slide", "shift", "draw",
+    "get", "tow", "roll", "hoist", "heave", "pry", "wrench", "chop", "cut", "saw", "blow",
+    "wash", "sweep", "shove", "bring", "put", "load", "lug", "scoot",
+})  # fmt: skip
+_AWAY = frozenset({"away", "out", "off", "down", "over", "aside", "apart"})
+#: Collapse with a particle or object: "give way", "cave in", "fall apart", "tip over".
+_COLLAPSE_2 = frozenset({("give", "way"), ("cave", "in"), ("fall", "apart"),
+                         ("tip", "over"), ("fall", "down"), ("fall", "over"),
+                         ("break", "down"), ("go", "away"), ("get", "rid"),
+                         ("no", "longer"), ("not", "there"), ("were", "not"),
+                         ("was", "not")})  # fmt: skip
+#: Words said of the agent of a removal, never what is removed.
+AGENTS = frozenset({"someone", "somebody", "anyone", "anybody", "we", "i", "you", "they",
+                    "he", "she", "people", "person", "me", "us", "them", "one", "ever"})  # fmt: skip
+
+
+def lemma(word: str) -> str:
+    """A verb form's lemma, by the irregular table and the regular suffixes.
+
+    >>> [lemma(w) for w in ("drags", "ripped", "collapsing", "removed", "carries", "gave")]
+    ['drag', 'rip', 'collapse', 'remove', 'carry', 'give']
+    """
+    if word in _IRREGULAR:
+        return _IRREGULAR[word]
+    for suffix, repl in (("ies", "y"), ("ied", "y")):
+        if word.endswith(suffix) and len(word) > 4:
+            return word[: -len(suffix)] + repl
+    known = _REMOVE_ALONE | _MOVE | {w for w, _ in _COLLAPSE_2}
+    if word in known:
+        return word
+    for suffix in ("ing", "ed", "es", "s", "d"):
+        if word.endswith(suffix) and len(word) > len(suffix) + 2:
+            stem = word[: -len(suffix)]
+            for cand in (stem, stem + "e", stem[:-1] if stem[-1:] == stem[-2:-1] else stem):
+                if cand in known:
+                    return cand
+    return word
+
+
+def removes(tokens: tuple[str, ...]) -> bool:
+    """Whether a clause says that something is removed or gives way.
+
+    >>> removes(("the", "tub", "is", "ripped", "out"))
+    True
+    >>> removes(("i", "take", "the", "lamp")), removes(("we", "haul", "the", "dresser", "away"))
+    (False, True)
+    """
+    lemmas = [lemma(t) for t in tokens]
+    for i, lem in enumerate(lemmas):
+        if lem in _REMOVE_ALONE:
+            return True
+        nxt = lemmas[i + 1] if i + 1 < len(lemmas) else ""
+        if (lem, nxt) in _COLLAPSE_2 or (tokens[i], nxt) in _COLLAPSE_2:
+            return True
+        if lem in _MOVE and any(t in _AWAY for t in tokens[i + 1 : i + 6]):
+            return True
+    return False
+
+
+#: Auxiliaries and particles of a removal clause ("is", "were", "to be", "rid of").
+_AUXILIARIES = frozenset({"is", "are", "was", "were", "be", "been", "being", "gets", "got",
+                          "get", "would", "will", "could", "can", "did", "do", "does", "to",
+                          "rid", "of", "way", "no", "longer", "not", "there", "suddenly",
+                          "just", "ever", "somehow", "completely", "entirely", "fully",
+                          "had", "has", "have", "then", "away", "aside", "apart"})  # fmt: skip
+
+
+def _verb(word: str) -> bool:
+    """A word of removal or collapse (any form), or one of their particles."""
+    lem = lemma(word)
+    return lem in _REMOVE_ALONE or lem in _MOVE or word in _AWAY or lem in ("give", "cave",
+                                                                          "fall", "tip")
+
+
+def _opener(tokens: tuple[str, ...], i: int) -> int:
+    """Length of a condition opener at ``tokens[i]`` (0 when there is none)."""
+    if i + 1 < len(tokens) and (tokens[i], tokens[i + 1]) in _OPENERS_2:
+        return 2
+    return 1 if tokens[i] in SUBORDINATORS else 0
+
+
+def split_condition(
+    tokens: tuple[str, ...],
+) -> tuple[tuple[str, ...], tuple[str, ...]] | None:
+    """``(what the condition removes, the question)`` when ``tokens`` hold a condition
+    clause of removal or collapse, else ``None``.
+
+    The condition runs from its opener to the next comma or sentence end; the question is
+    everything else. Agents ("someone", "we"), auxiliaries and the words of removal are
+    left out of the condition: what is left names what is removed."""
+    n = len(tokens)
+    for i in range(n):
+        width = _opener(tokens, i)
+        if not width:
+            continue
+        if tokens[i] == "should" and i > 0 and tokens[i - 1] not in (",", ".", "?"):
+            continue  # "what should fall": not an inverted condition
+        start = i + width
+        end = next((j for j in range(start, n) if tokens[j] in (",", ".", "?")), n)
+        clause = tokens[start:end]
+        if not clause or not removes(clause):
+            continue
+        question = (*tokens[: i if width == 1 or tokens[i] != "what" else i + 1], *tokens[end:])
+        question = tuple(t for k, t in enumerate(question) if t != "," or k > 0)
+        kept = tuple(
+            t for t in clause if t not in AGENTS and t not in _AUXILIARIES and not _verb(t)
+        )
+        return kept, question
+    return None
