@@ -5,7 +5,7 @@
     {"scene_id": "kitchen", "units": "m", "up": "z",
      "objects": [{"id": 3, "label": "sink", "center": [1.0, 2.0, 0.9],
                   "size": [0.6, 0.5, 0.2],
-                  "points": [[0.8, 1.8, 0.8], ...],
+                  "points": [[0.8, 1.8, 0.8], ...], "rgb": [231, 229, 224],
                   "attributes": {"color": "white", "affordance": ["wash hands"]}}]}
 
 Rules:
@@ -18,6 +18,11 @@ Rules:
   the number of points (0 without points). Points themselves are not stored.
 - ``attributes`` maps a key to a string or a list of strings; each value is stored with
   source ``input``.
+- ``rgb`` (optional): the object's mean colour, three numbers in [0, 255]. It is stored as
+  the attribute ``rgb`` = ``#rrggbb`` (source ``input``), and, unless ``attributes`` gives
+  a ``color``, the basic colour term nearest to it in CIELAB
+  (:func:`causalsplat.colors.names_of`) as ``color`` (source ``geometry``), as for an
+  entity built from Gaussians.
 - ``units`` defaults to ``"m"``, ``up`` to ``"z"``.
 - Relations come from the scene-graph edge builder (:mod:`causalsplat.graph.edges`),
   the same rules as for scenes built from a Gaussian field, with ``up`` as the vertical.
@@ -35,6 +40,7 @@ from pathlib import Path
 from typing import Any
 
 from causalsplat._json import JSONInputError, decode_json
+from causalsplat.colors import names_of, rgb_to_hex
 from causalsplat.errors import InputFormatError
 from causalsplat.graph.config import EdgeConfig
 from causalsplat.graph.edges import build_relations
@@ -64,6 +70,7 @@ class ObjectRecord:
     size: tuple[float, float, float]
     points: tuple[tuple[float, float, float], ...]
     attributes: tuple[tuple[str, str], ...]
+    rgb: tuple[float, float, float] | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -158,9 +165,7 @@ def objects_to_scene_graph(
                     bbox_max=hi,  # type: ignore[arg-type]
                     external_id=str(obj.id),
                     point_count=len(obj.points),
-                    attributes=tuple(
-                        Attribute(k, v, AttributeSource.INPUT) for k, v in obj.attributes
-                    ),
+                    attributes=_entity_attributes(obj),
                 )
             )
         except InvalidSceneError as exc:
@@ -182,6 +187,18 @@ def objects_to_scene_graph(
         return SceneGraph(meta=meta, entities=tuple(entities), relations=edges)
     except InvalidSceneError as exc:
         raise InputFormatError(f"{objects.source}: {exc}") from exc
+
+
+def _entity_attributes(obj: ObjectRecord) -> tuple[Attribute, ...]:
+    attrs = [Attribute(k, v, AttributeSource.INPUT) for k, v in obj.attributes]
+    if obj.rgb is None:
+        return tuple(attrs)
+    rgb01 = tuple(v / 255.0 for v in obj.rgb)
+    if not any(k == "rgb" for k, _ in obj.attributes):
+        attrs.append(Attribute("rgb", rgb_to_hex(rgb01), AttributeSource.INPUT))
+    if not any(k == "color" for k, _ in obj.attributes):
+        attrs.append(Attribute("color", names_of(rgb01)[0], AttributeSource.GEOMETRY))
+    return tuple(attrs)
 
 
 # -- validation helpers ------------------------------------------------------------------
@@ -230,7 +247,7 @@ def _triple(value: object, where: _Where, path: str) -> tuple[float, float, floa
 def _parse_object(obj: object, where: _Where, path: str) -> ObjectRecord:
     if not isinstance(obj, dict):
         raise where.error(path, f"must be an object, got {_kind(obj)}")
-    unknown = set(obj) - {"id", "label", "center", "size", "points", "attributes"}
+    unknown = set(obj) - {"id", "label", "center", "size", "points", "attributes", "rgb"}
     if unknown:
         raise where.error(path, f"unknown keys {sorted(unknown)}")
     for required in ("id", "label", "center", "size"):
@@ -249,7 +266,13 @@ def _parse_object(obj: object, where: _Where, path: str) -> ObjectRecord:
     if not isinstance(raw_points, list):
         raise where.error(f"{path}.points", f"must be a list, got {_kind(raw_points)}")
     points = tuple(_triple(p, where, f"{path}.points[{j}]") for j, p in enumerate(raw_points))
-    return ObjectRecord(oid, label, center, size, points, _attributes(obj, where, path))
+    rgb = None
+    if obj.get("rgb") is not None:
+        rgb = _triple(obj["rgb"], where, f"{path}.rgb")
+        if not all(0.0 <= v <= 255.0 for v in rgb):
+            raise where.error(f"{path}.rgb", f"each channel must be in [0, 255], got {list(rgb)}")
+    attributes = _attributes(obj, where, path)
+    return ObjectRecord(oid, label, center, size, points, attributes, rgb)
 
 
 def _attributes(obj: dict[str, Any], where: _Where, path: str) -> tuple[tuple[str, str], ...]:

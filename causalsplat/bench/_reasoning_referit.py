@@ -59,8 +59,9 @@ class RowOutcome:
     seconds: float
 
 
-def objects_document(scan: str, root: Path = DATA) -> dict[str, Any]:
-    """The objects document (DESIGN §9) of one scan's object table."""
+def objects_document(scan: str, root: Path = DATA, *, colour: bool = True) -> dict[str, Any]:
+    """The objects document (DESIGN §9) of one scan's object table; ``colour``: with each
+    object's mean colour (the table's ``avg_rgba``) as ``rgb``."""
     path = root / "objects_info" / f"objects_info_{scan}.json"
     table = json.loads(path.read_text(encoding="utf-8"))
     objects = []
@@ -72,6 +73,9 @@ def objects_document(scan: str, root: Path = DATA) -> dict[str, Any]:
             "center": [(a + b) / 2 for a, b in zip(lo, hi, strict=True)],
             "size": [b - a for a, b in zip(lo, hi, strict=True)],
         }
+        rgba = o.get("avg_rgba")
+        if colour and isinstance(rgba, list) and len(rgba) >= 3:
+            obj["rgb"] = [float(v) for v in rgba[:3]]
         objects.append(obj)
     return {"scene_id": scan, "units": "m", "up": "z", "objects": objects}
 
@@ -79,12 +83,15 @@ def objects_document(scan: str, root: Path = DATA) -> dict[str, Any]:
 class ScanGraphs:
     """Scans ingested into one store (built on first use), as reasoner contexts."""
 
-    def __init__(self, url: str, root: Path = DATA, edges: EdgeConfig | None = None) -> None:
+    def __init__(
+        self, url: str, root: Path = DATA, edges: EdgeConfig | None = None, *, colour: bool = True
+    ) -> None:
         from causalsplat.api import open_store
 
         self.store = open_store(url)
         self.root = root
         self.edges = edges
+        self.colour = colour
         self._contexts: dict[str, SceneContext] = {}
         self.ingest_s = 0.0
 
@@ -94,7 +101,7 @@ class ScanGraphs:
             from causalsplat.objects import objects_to_scene_graph, parse_objects
 
             start = time.perf_counter()
-            doc = objects_document(scan, self.root)
+            doc = objects_document(scan, self.root, colour=self.colour)
             graph = objects_to_scene_graph(parse_objects(doc, source=scan), config=self.edges)
             self.store.save_scene(graph, if_exists="replace")
             self.ingest_s += time.perf_counter() - start

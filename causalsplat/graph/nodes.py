@@ -24,8 +24,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from causalsplat.colors import mean_color, names_of, rgb_to_hex
 from causalsplat.field.types import MaskEvidence
-from causalsplat.graph.colors import color_name
 from causalsplat.instances.assign import InstanceAssignment
 from causalsplat.io.types import Camera, GaussianScene
 from causalsplat.masks import MaskSet
@@ -63,6 +63,7 @@ def build_entities(
     config = config or NodeConfig()
     votes = _label_votes(assignment, evidence, masksets)
     colors = scene.colors
+    opacities = scene.opacities
     means = scene.means.astype(np.float64)
     entities = []
     for k in range(assignment.n_entities):
@@ -86,9 +87,10 @@ def build_entities(
             for name in sorted(tally, key=lambda n: (-tally[n], n))
             if total > 0 and tally[name] / total >= config.min_votes_share
         ]
-        color = color_name(colors[idx])
-        if color is not None:
-            attrs.append(Attribute("color", color, AttributeSource.GEOMETRY))
+        rgb = mean_color(colors[idx], opacities[idx])
+        if rgb is not None:
+            attrs.append(Attribute("rgb", rgb_to_hex(rgb), AttributeSource.GEOMETRY))
+            attrs.append(Attribute("color", names_of(rgb)[0], AttributeSource.GEOMETRY))
         entities.append(
             Entity(
                 id=k,

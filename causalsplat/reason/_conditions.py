@@ -63,7 +63,8 @@ _COLLAPSE_2 = frozenset({("give", "way"), ("cave", "in"), ("fall", "apart"),
                          ("was", "not")})  # fmt: skip
 #: Words said of the agent of a removal, never what is removed.
 AGENTS = frozenset({"someone", "somebody", "anyone", "anybody", "we", "i", "you", "they",
-                    "he", "she", "people", "person", "me", "us", "them", "one", "ever"})  # fmt: skip
+                    "he", "she", "people", "person", "me", "us", "them", "one",
+                    "ever"})  # fmt: skip
 
 
 def lemma(word: str) -> str:
@@ -120,8 +121,12 @@ _AUXILIARIES = frozenset({"is", "are", "was", "were", "be", "been", "being", "ge
 def _verb(word: str) -> bool:
     """A word of removal or collapse (any form), or one of their particles."""
     lem = lemma(word)
-    return lem in _REMOVE_ALONE or lem in _MOVE or word in _AWAY or lem in ("give", "cave",
-                                                                          "fall", "tip")
+    return (
+        lem in _REMOVE_ALONE
+        or lem in _MOVE
+        or word in _AWAY
+        or lem in ("give", "cave", "fall", "tip")
+    )
 
 
 def _opener(tokens: tuple[str, ...], i: int) -> int:

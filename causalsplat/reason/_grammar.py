@@ -190,15 +190,31 @@ SIDES: dict[str, str] = {
 #: Bodily states that point at an affordance ("I am thirsty" -> drink).
 STATES: dict[str, str] = {
     "thirsty": "drink", "hungry": "eat", "tired": "sleep", "sleepy": "sleep",
-    "cold": "warm up", "chilly": "warm up", "dark": "illuminate", "bored": "read",
+    "cold": "warm up", "chilly": "warm up", "dark": "turn on a light", "bored": "read",
     "dirty": "wash", "wet": "dry", "exhausted": "sleep", "starving": "eat",
-    "parched": "drink", "freezing": "warm up", "sweaty": "wash",
+    "parched": "drink", "freezing": "warm up", "sweaty": "wash", "hot": "cool down",
+    "overheated": "cool down", "boiling": "cool down", "stuffy": "cool down",
+    "dim": "turn on a light", "gloomy": "turn on a light",
 }  # fmt: skip
 #: Words that predicate a state of someone ("I am cold", "it is so dark", "I feel tired").
 PREDICATING = frozenset({"am", "is", "are", "feel", "feels", "feeling", "get", "getting",
                          "got", "become", "was", "were"})  # fmt: skip
 _DEGREE = frozenset({"so", "very", "too", "really", "quite", "a", "bit", "little", "pretty",
                      "kind", "of", "super", "freaking", "extremely"})  # fmt: skip
+
+
+#: Words that may follow a state said of someone ("I'm cold | in here", "hot | and tired").
+_AFTER_STATE = frozenset({"in", "here", "and", "now", "today", "tonight", "but", "so", "out",
+                          "outside", "inside", "right", "again", "what", "where", "how",
+                          "anything", "is", "there", "can", "could", "any", "all", "lately",
+                          "already", "too", "as", "because", "after", "from", "since",
+                          "this"})  # fmt: skip
+#: Who or what a state is said of: people, and the room they are in.
+_STATE_SUBJECTS = frozenset({"i", "we", "you", "he", "she", "they", "it", "everyone",
+                             "everybody", "room", "here", "place", "house", "apartment",
+                             "kitchen", "bedroom", "bathroom", "office", "baby", "kids",
+                             "children", "son", "daughter", "guest", "guests", "feet",
+                             "hands", "hair", "throat", "mouth", "body", "back"})  # fmt: skip
 
 
 def state_at(tokens: tuple[str, ...], i: int) -> str | None:
@@ -208,14 +224,28 @@ def state_at(tokens: tuple[str, ...], i: int) -> str | None:
 
     >>> state_at(("i", "am", "so", "cold"), 3), state_at(("keep", "food", "cold"), 2)
     ('warm up', None)
+    >>> state_at(("it", "is", "too", "dark", "in", "here"), 3)
+    'turn on a light'
+    >>> state_at(("this", "is", "dark"), 2), state_at(("a", "dark", "brown", "chair"), 1)
+    (None, None)
     """
     want = STATES.get(tokens[i])
     if want is None:
         return None
+    following = tokens[i + 1] if i + 1 < len(tokens) else ""
+    if following.isalpha() and following not in _AFTER_STATE:
+        return None  # an adjective before its noun: "dark brown", "hot water", "cold drink"
     j = i - 1
     while j >= 0 and tokens[j] in _DEGREE:
         j -= 1
-    return want if j < 0 or tokens[j] in PREDICATING else None
+    if j < 0:
+        return want  # "thirsty!", "so cold"
+    if tokens[j] not in PREDICATING:
+        return None
+    while j >= 0 and tokens[j] in PREDICATING:
+        j -= 1
+    # said of the speaker, the listener or the room, not of a thing ("this is dark")
+    return want if j < 0 or tokens[j] in _STATE_SUBJECTS else None
 
 
 #: Words that carry no meaning for affordance matching.

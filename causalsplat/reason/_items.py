@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from causalsplat.colors import is_color_word
 from causalsplat.reason import _grammar as g
 from causalsplat.reason._mentions import CategoryIndex, foreign_at, mention_at
 from causalsplat.reason._text import ORDINALS
@@ -67,7 +68,7 @@ def _modifier(word: str, index: CategoryIndex) -> Modifier | None:
         return Modifier("ordinal", number=ORDINALS[word])
     if word in ("last", "final"):
         return Modifier("ordinal", number=-1)
-    if word in index.attribute_words or word in index.lexicon.colors:
+    if word in index.attribute_words or word in index.lexicon.colors or is_color_word(word):
         return Modifier("attribute", word)
     return None
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
+from causalsplat.colors import hex_to_rgb
 from causalsplat.reason.errors import UnlabelledSceneError
 from graph_store import Entity, SceneGraph
 from queries import DEFAULT_CONFIG, Executor, GraphQuery, QueryConfig, QueryResult, make_executor
@@ -105,6 +106,17 @@ class SceneContext:
             pairs = {(a.key, a.value) for e in self.graph.entities for a in e.attributes}
             self.cache["attr-pairs"] = tuple(sorted(pairs))
         return self.cache["attr-pairs"]  # type: ignore[no-any-return]
+
+    def attribute_set(self, entity_id: int) -> frozenset[tuple[str, str]]:
+        """The ``(key, value)`` attributes of one entity."""
+        return frozenset((a.key, a.value) for a in self.graph.get_entity(entity_id).attributes)
+
+    def colour(self, entity_id: int) -> tuple[float, float, float] | None:
+        """The entity's stored mean colour (``rgb`` attribute, sRGB in [0, 1]) or ``None``."""
+        for a in self.graph.get_entity(entity_id).attributes:
+            if a.key == "rgb":
+                return hex_to_rgb(a.value)
+        return None
 
     def is_structural(self, entity: Entity) -> bool:
         return self.config.is_structural(entity.category)

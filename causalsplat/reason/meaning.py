@@ -54,6 +54,13 @@ class MeaningScorer(Protocol):
         asks for (a need adapter applies); ``False`` for a noun phrase ("the oven")."""
         ...
 
+    def table_scores(self, query: str) -> tuple[tuple[str, ...], np.ndarray] | None:
+        """Every category of the shipped knowledge table scored against a need (the mean
+        of its two best descriptions, as a scene's categories are scored): what would
+        meet it best anywhere, the reference a scene's best is held to. ``None`` when the
+        scorer has no vectors of the table."""
+        ...
+
 
 class LexicalMeaning:
     """Word overlap weighted by WordNet relatedness (module docstring)."""
@@ -69,6 +76,10 @@ class LexicalMeaning:
             [lexical_score(words, " ".join(tokenize(t)), self.lexicon) for t in texts],
             dtype=np.float64,
         )
+
+    def table_scores(self, query: str) -> tuple[tuple[str, ...], np.ndarray] | None:
+        """``None``: word overlap over the whole table is too slow to be a reference."""
+        return None
 
 
 class QueryAdapter:
@@ -120,8 +131,11 @@ class EmbeddingMeaning:
         self.adapter: QueryAdapter | None = adapter
         shipped = shipped_vectors()
         self._shipped: dict[str, np.ndarray] = {}
+        self._table: _Table | None = None
         if shipped is not None:
             self._shipped = dict(zip(shipped[0], shipped[1], strict=True))
+            self._table = _Table.of(*shipped)
+        self._queries: dict[tuple[str, bool], np.ndarray] = {}
 
     def vectors(self, texts: Sequence[str]) -> np.ndarray:
         """``(len(texts), 384)`` unit vectors: the shipped ones where the table has the
@@ -131,14 +145,63 @@ class EmbeddingMeaning:
         rows = [self._shipped[t] if t in self._shipped else computed[t] for t in texts]
         return np.stack(rows).astype(np.float64) if rows else np.zeros((0, 384))
 
+    def query_vector(self, query: str, *, need: bool = True) -> np.ndarray:
+        """The query's unit vector (moved by the need adapter for a need); the last few
+        are kept, since one instruction is scored against several sets of texts."""
+        key = (query, need)
+        q = self._queries.get(key)
+        if q is None:
+            q = np.asarray(self.embedder.encode([query])[0], dtype=np.float64)
+            if need and self.adapter is not None:
+                # the adapter was learned on instructions; a noun phrase keeps its own vector
+                q = self.adapter(q)
+            if len(self._queries) >= 64:
+                self._queries.clear()
+            self._queries[key] = q
+        return q
+
     def scores(self, query: str, texts: Sequence[str], *, need: bool = True) -> np.ndarray:
         if not texts:
             return np.zeros(0, dtype=np.float64)
-        q = np.asarray(self.embedder.encode([query])[0], dtype=np.float64)
-        if need and self.adapter is not None:
-            # the adapter was learned on instructions; a noun phrase keeps its own vector
-            q = self.adapter(q)
-        return self.vectors(texts) @ q
+        return self.vectors(texts) @ self.query_vector(query, need=need)
+
+    def table_scores(self, query: str) -> tuple[tuple[str, ...], np.ndarray] | None:
+        if self._table is None:
+            return None
+        return self._table.names, self._table.best_two(self.query_vector(query, need=True))
+
+
+class _Table:
+    """The shipped descriptions grouped by category (a text ``"name: ..."`` or the bare
+    name belongs to ``name``), for scoring every category at once."""
+
+    def __init__(self, names: tuple[str, ...], vectors: np.ndarray, starts: np.ndarray) -> None:
+        self.names = names
+        self.vectors = vectors
+        self.starts = starts
+
+    @classmethod
+    def of(cls, texts: Sequence[str], vectors: np.ndarray) -> _Table:
+        owners = [t.split(":", 1)[0].strip() for t in texts]
+        order = sorted(range(len(texts)), key=lambda i: owners[i])
+        names = tuple(dict.fromkeys(owners[i] for i in order))
+        first = {n: k for k, n in reversed(list(enumerate(owners[i] for i in order)))}
+        starts = np.asarray([first[n] for n in names], dtype=np.int64)
+        return cls(names, np.asarray(vectors, dtype=np.float64)[order], starts)
+
+    def best_two(self, q: np.ndarray) -> np.ndarray:
+        """Per category, the mean of its two best scores (its one score when alone)."""
+        s = self.vectors @ q
+        ends = np.append(self.starts[1:], len(s))
+        out = np.empty(len(self.names))
+        for k, (a, b) in enumerate(zip(self.starts, ends, strict=True)):
+            part = s[a:b]
+            if len(part) == 1:
+                out[k] = part[0]
+            else:
+                two = np.partition(part, len(part) - 2)[-2:]
+                out[k] = 0.5 * float(two.sum())
+        return out
 
 
 def vectors_path() -> Any:

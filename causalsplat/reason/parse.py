@@ -141,8 +141,9 @@ def parse_instruction(text: str, index: CategoryIndex) -> Instruction:
             # "facing the chairs, choose the second from the left", "... the one on the
             # left": one of the chairs
             target = replace(target, mention=viewpoint.mention)
-    if g.REMOVAL_TRIGGERS.search(joined) or (
-        g.FALL_TRIGGERS.search(joined) and target is not None and not target.is_any
+    falls = bool(g.FALL_TRIGGERS.search(joined))
+    if (g.REMOVAL_TRIGGERS.search(joined) and (falls or _asks_consequence(tokens))) or (
+        falls and target is not None and not target.is_any
     ):
         removed = _removed(target)
         return Instruction(text, tokens, "counterfactual", None, removed=removed,
@@ -163,6 +164,12 @@ def parse_instruction(text: str, index: CategoryIndex) -> Instruction:
         target = NounPhrase(None)
     elif not wh:
         target = _demonstrated(target, main_tokens, viewpoint)
+    universal = any(t in _UNIVERSAL for t in main_tokens)
+    if _unrestricted(target) and viewpoint is None and action and not universal:
+        # "which thing needs watering?", "where can the baby play?": nothing but the rest
+        # of the sentence says what is asked for; read as a need, never as everything
+        return Instruction(text, tokens, "action", target, action=action,
+                           purpose_start=purpose, main_tokens=main_tokens)  # fmt: skip
     if joined.startswith("how many"):
         kind = "count"
     elif main_tokens[:2] in (("is", "there"), ("are", "there")):
@@ -190,6 +197,32 @@ def _counterfactual(
     closure = bool(g.CLOSURE_TRIGGERS.search(" ".join(question)))
     return Instruction(text, tokens, "counterfactual", None, removed=_removed(target),
                        closure=closure)  # fmt: skip
+
+
+def _asks_consequence(tokens: tuple[str, ...]) -> bool:
+    """Whether an instruction that removes something without a condition clause asks
+    what follows ("remove the bed: what happens?", "take away the table, what is left
+    standing?"); a description that only says something was pulled out ("the bookshelf
+    that is pulled out") asks nothing of the kind."""
+    return "?" in tokens or any(
+        a == "what" and b in ("happens", "happen", "would", "will", "is", "stays", "remains")
+        for a, b in itertools.pairwise(tokens)
+    )
+
+
+def _unrestricted(target: NounPhrase) -> bool:
+    """A phrase that names any entity and narrows it by nothing: no category, relation,
+    attribute, superlative, side, ordinal or place ("what", "which thing", "something")."""
+    return (
+        target.is_any
+        and not target.categories
+        and not target.constraints
+        and not target.attributes
+        and not target.extremes
+        and target.side is None
+        and target.ordinal is None
+        and target.place is None
+    )
 
 
 #: Words that ask for every entity that qualifies ("all the stools at the counter").

@@ -12,8 +12,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from enum import StrEnum
 
+from causalsplat.colors import BASIC
 from causalsplat.errors import CausalSplatError
-from causalsplat.graph.colors import PALETTE
 
 Vec3 = tuple[float, float, float]
 
@@ -35,7 +35,7 @@ class Kind(StrEnum):
 
 #: Named colours (sRGB in [0, 1]): the palette entities' colours are named from, so a
 #: generated room's colours read back as the names it was made with.
-COLORS: dict[str, Vec3] = dict(PALETTE)
+COLORS: dict[str, Vec3] = dict(BASIC)
 
 
 @dataclass(frozen=True, slots=True)

@@ -6,25 +6,14 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
+from causalsplat.colors import BASIC as PALETTE
+from causalsplat.colors import hex_to_rgb
 from causalsplat.field import MaskEvidence
-from causalsplat.graph.colors import PALETTE, color_name
 from causalsplat.graph.nodes import NodeConfig, build_entities, build_provenance
 from causalsplat.instances import InstanceAssignment
 from causalsplat.io.types import Camera, GaussianScene
 from causalsplat.masks import MaskSet
 from graph_store import AttributeSource
-
-
-@pytest.mark.parametrize("name", sorted(PALETTE))
-def test_palette_colours_name_themselves_also_when_shaded(name: str) -> None:
-    rgb = np.array(PALETTE[name])
-    assert color_name(rgb[None]) == name
-    if name not in ("white", "gray", "black", "beige"):  # shading moves lightness only
-        assert color_name(0.85 * rgb[None]) == name
-
-
-def test_colour_of_nothing_is_none() -> None:
-    assert color_name(np.zeros((0, 3))) is None
 
 
 def _fixture() -> tuple[GaussianScene, InstanceAssignment, MaskEvidence, list[MaskSet]]:
@@ -116,3 +105,27 @@ def test_centroid_is_the_trimmed_mean_and_lies_in_the_box() -> None:
         assert entity.centroid[axis] == pytest.approx(0.1, rel=1e-6)
     (plain,) = build_entities(scene, assignment, evidence, [], NodeConfig(bbox_quantile=0))
     assert plain.centroid[0] == pytest.approx(5.0) and plain.bbox_max[0] == 100.0
+
+
+def test_colour_is_the_opacity_weighted_mean_of_the_base_colours() -> None:
+    # two opaque red Gaussians and one nearly transparent blue one: the mean is red,
+    # weighted by opacity (0.9, 0.9, 0.01), never the plain mean
+    means = np.zeros((3, 3))
+    rgb = np.array([PALETTE["red"], PALETTE["red"], PALETTE["blue"]])
+    scene = GaussianScene.from_points(
+        means, rgb, np.full(3, 0.05), opacity=np.array([0.9, 0.9, 0.01])
+    )
+    assignment = InstanceAssignment(
+        labels=np.zeros(3, dtype=np.int64), mask_entity=np.zeros(0, dtype=np.int64),
+        centers=np.eye(1, 2, dtype=np.float32), score=np.ones(3, dtype=np.float32),
+        n_clusters=1, n_noise_masks=0,
+    )  # fmt: skip
+    evidence = MaskEvidence(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0),
+                            np.zeros((0, 2), np.float32), sp.csr_matrix((0, 3)))  # fmt: skip
+    (entity,) = build_entities(scene, assignment, evidence, [])
+    values = {a.key: a.value for a in entity.attributes}
+    w = np.array([0.9, 0.9, 0.01])
+    expected = (scene.colors.astype(np.float64) * w[:, None]).sum(0) / w.sum()
+    got = hex_to_rgb(values["rgb"])
+    assert got is not None and np.allclose(got, expected, atol=0.5 / 255 + 1e-9)
+    assert values["color"] == "red"

@@ -95,7 +95,8 @@ def test_the_demo_room_in_both_orders(tmp_path: Path) -> None:
     reasoner = OfflineReasoner()
     first = reasoner.answer("if the table is removed, what falls?", ctx).entity_ids
     assert first  # the demo room's tables hold things
-    for text in ("what falls if the table is removed?", "what drops if someone drags the table out?",
+    for text in ("what falls if the table is removed?",
+                 "what drops if someone drags the table out?",
                  "which things would fall if the tables collapsed?"):  # fmt: skip
         assert reasoner.answer(text, ctx).entity_ids == first, text
 
@@ -106,7 +107,9 @@ def test_scene0000_in_both_orders() -> None:
     from tests.conftest import shared_data_path
 
     root = shared_data_path("referit3d_scannet_objects")
-    ctx = SceneContext(objects_to_scene_graph(parse_objects(objects_document("scene0000_00", root))))
+    ctx = SceneContext(
+        objects_to_scene_graph(parse_objects(objects_document("scene0000_00", root)))
+    )
     reasoner = OfflineReasoner()
     for removed in ("bed", "kitchen counter"):
         first = set(reasoner.answer(f"if the {removed} is removed, what falls?", ctx).entity_ids)
