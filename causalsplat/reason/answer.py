@@ -96,6 +96,17 @@ class Answer:
     def fell_back(self) -> bool:
         return self.fallback is not None
 
+    @property
+    def nothing_fits(self) -> bool:
+        """Nothing in the scene fits what was asked (an empty set answer that is not a
+        counterfactual's "nothing falls"); :attr:`candidates` then holds what came
+        closest and :attr:`explanation` says what the scene contradicts."""
+        return (
+            not self.entity_ids
+            and self.value is None
+            and self.query_type != "counterfactual"
+        )
+
     def to_dict(self, *, entities: list[dict[str, Any]] | None = None) -> dict[str, Any]:
         """The JSON document of ``causalsplat ask --json`` (DESIGN §10)."""
         return {
@@ -111,6 +122,7 @@ class Answer:
             "reasoner": self.reasoner,
             "requested": self.requested,
             "fallback": self.fallback,
+            "nothing_fits": self.nothing_fits,
             "candidates": [c.to_dict() for c in self.candidates],
             "gaussians": None if self.gaussian_mask is None else int(self.gaussian_mask.sum()),
         }

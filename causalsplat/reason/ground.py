@@ -81,6 +81,11 @@ FITS = 0.1
 #: the placed answers (right 92.0 % -> 91.6 %) and answers nothing in 56 % of the scans
 #: without one, where the best scene score alone (0.27) answers nothing in 39 %.
 NEED_SHARE = 0.55
+#: Lowest match of a need to an affordance phrase the scene stores for it to select by that
+#: phrase (below it, categories are grounded as in a scene without stored affordances):
+#: the needs generated for synthetic rooms (seeds 0-2) match their phrases at 0.39 or
+#: more; "which thing needs watering?" matches "place items" at 0.30.
+STORED_FITS = 0.35
 #: Lowest score a category must reach to stand for a noun (or a sentence) that names
 #: nothing the scene holds ("the piano" in a room without one fits nothing).
 DESCRIBED = 0.6
@@ -318,10 +323,26 @@ class Grounder:
         if not stored:
             return self._widen(ins, ranked)
         match = match_affordances(
-            need_words(ins), stored, self.lexicon, embedder=getattr(self.scorer, "embedder", None)
+            need_words(ins),
+            stored,
+            self.lexicon,
+            embedder=getattr(self.scorer, "embedder", None),
+            minimum=STORED_FITS,
         )
         if not match.phrases:
             return ranked
+        if ranked.reference is not None:
+            # the stored phrases must not meet a need that nothing here meets: what they
+            # select is held to what would meet it best anywhere, as categories are
+            selected = {
+                e.category
+                for e in self.ctx.graph.entities
+                if any(a.key == self.ctx.config.affordance_key and a.value in match.phrases
+                       for a in e.attributes)
+            }  # fmt: skip
+            best = max((self.meaning_of(query, c) for c in selected), default=0.0)
+            if best < NEED_SHARE * ranked.reference[1]:
+                return replace(ranked, chosen=())
         score = dict(match.scores)
         chosen = tuple((p, score[p]) for p in match.phrases)
         return replace(ranked, affordances=chosen)

@@ -153,7 +153,7 @@ def parse_instruction(text: str, index: CategoryIndex) -> Instruction:
     wants = (
         g.ACTION_TRIGGERS.search(joined)
         or purpose is not None
-        or any(t in g.STATES for t in tokens)
+        or any(g.state_at(main_tokens, i) for i in range(len(main_tokens)))
     )
     if wants and not _names_what_is_wanted(target, purpose, fetch):
         target = _place_of_need(_anchor_of_need(target, items))

@@ -113,6 +113,8 @@ class Planner:
         # the viewpoint's own phrase is read from the default observer ("facing the room
         # with the sink to your right"): its sides must not refer back to the viewpoint
         self._placing_viewpoint = False
+        #: colour words the scene contradicts (a description that fits nothing here)
+        self.contradicted: list[str] = []
 
     # -- candidates ----------------------------------------------------------------------
 
@@ -178,7 +180,7 @@ class Planner:
         colours = {i: self.ctx.colour(i) for i in ids}
         known = {i: c for i, c in colours.items() if c is not None}
         if not known:
-            return None
+            return self._colour_names(step, word, term, ids)
         named = [i for i in ids if ("color", term) in self.ctx.attribute_set(i)]
         if named and _colour_word(word) in BASIC:
             return b.add(Op.FILTER_ATTRIBUTE, step, value=f"color={term}")
@@ -187,11 +189,10 @@ class Planner:
         best = min(dist.values())
         if min(excess.values()) > COLOUR_CONTRADICTED:
             closest = sorted(known, key=lambda i: dist[i])[:3]
-            b.note(
-                f"nothing here is {word} (closest: "
-                + ", ".join(f"#{i} {rgb_to_hex(known[i])}" for i in closest)
-                + ")"
-            )
+            self.contradicted.append(word)
+            closest_text = ", ".join(f"#{i} {rgb_to_hex(known[i])}" for i in closest)
+            b.note(f"the scene contradicts {word!r}: nothing here is {word} (closest: "
+                   f"{closest_text})")  # fmt: skip
             return b.add(Op.DIFFERENCE, step, step)
         keep = sorted(i for i in known if dist[i] <= best + COLOUR_MARGIN)
         if len(keep) == len(ids):
@@ -199,6 +200,21 @@ class Planner:
         values = sorted({rgb_to_hex(known[i]) for i in keep})
         b.note(f"{word}: {len(keep)} of {len(ids)} candidates by colour")
         return b.union([b.add(Op.FILTER_ATTRIBUTE, step, value=f"rgb={v}") for v in values])
+
+    def _colour_names(self, step: int, word: str, term: str, ids: tuple[int, ...]) -> int | None:
+        """Candidates that store colour names only (an objects file's ``color``): when
+        every one has a name and none is the word or its basic term, the scene contradicts
+        the word; otherwise ``None`` (the stored names are matched as written)."""
+        names = [{v for k, v in self.ctx.attribute_set(i) if k == "color"} for i in ids]
+        if not ids or not all(names):
+            return None
+        wanted = {normalise_text(word), term}
+        if any(wanted & {normalise_text(v) for v in n} for n in names):
+            return None
+        self.contradicted.append(word)
+        seen = sorted({v for n in names for v in n})
+        self.b.note(f"the scene contradicts {word!r}: the candidates are {', '.join(seen)}")
+        return self.b.add(Op.DIFFERENCE, step, step)
 
     # -- noun phrases --------------------------------------------------------------------
 
@@ -230,6 +246,11 @@ class Planner:
             return None
         if self.b.size(planned.step) == 0:
             self.b.note(f"anchor {np.text!r}: nothing fits")
+            if self.contradicted:
+                # the scene holds the anchor's kind but contradicts its description ("the
+                # bed next to the blue nightstand" where the nightstand is brown): nothing
+                # is related to it, rather than dropping what was said
+                return planned.step
             return None
         return planned.step
 

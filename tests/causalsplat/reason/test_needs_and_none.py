@@ -1,0 +1,161 @@
+"""Needs as people say them, and descriptions the scene contradicts.
+
+A need is never answered with every object, and not with whatever merely comes closest:
+when nothing in the scene meets it, the answer is empty (``nothing_fits``) with the
+closest candidates and what would fit. A description whose colour the scene contradicts
+answers nothing, on the target or on an anchor.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from causalsplat.objects import objects_to_scene_graph, parse_objects, read_objects
+from causalsplat.reason import SceneContext
+from causalsplat.reason.offline import OfflineReasoner
+
+LEXICAL = OfflineReasoner(embeddings=False)
+
+
+@pytest.fixture(scope="module")
+def demo_room(tmp_path_factory: pytest.TempPathFactory) -> SceneContext:
+    """The demo's room (synthetic small, seed 0), its ground-truth objects ingested."""
+    from causalsplat.synth import synth_scene
+
+    out = tmp_path_factory.mktemp("demo") / "small0"
+    synth_scene("small", 0, out)
+    return SceneContext(objects_to_scene_graph(read_objects(out / "objects.json")))
+
+
+@pytest.fixture(scope="module")
+def reasoner() -> OfflineReasoner:
+    return OfflineReasoner(embeddings=True)
+
+
+def _non_structural(ctx: SceneContext) -> int:
+    return sum(1 for e in ctx.graph.entities if not ctx.is_structural(e))
+
+
+@pytest.mark.parametrize(
+    "text",
+    ["which thing needs watering?", "where can the baby play?", "what needs cleaning?",
+     "what could I use?", "I want to lie down", "anything to do here?"],
+)  # fmt: skip
+def test_a_need_is_never_answered_with_everything(
+    demo_room: SceneContext, reasoner: OfflineReasoner, text: str
+) -> None:
+    answer = reasoner.answer(text, demo_room)
+    assert len(answer.entity_ids) < _non_structural(demo_room) // 2, answer.explanation
+
+
+@pytest.mark.parametrize(
+    ("text", "category"),
+    [
+        ("which thing needs watering?", "plant"),
+        ("What can I use to heat up my lunch?", "stove"),
+        ("Is there anything I can read?", "book"),
+        ("I just washed my hands, where can I dry them?", "towel"),
+    ],
+)
+def test_how_can_i_what_can_i_use_and_is_there_anything(
+    demo_room: SceneContext, reasoner: OfflineReasoner, text: str, category: str
+) -> None:
+    answer = reasoner.answer(text, demo_room)
+    assert answer.entity_ids and set(answer.categories) == {category}, answer.explanation
+
+
+@pytest.mark.parametrize(
+    "text",
+    ["it's too dark in here", "I want to watch a movie", "where can I take a shower?",
+     "I need to brush my teeth", "I need warm air to dry my hair"],
+)  # fmt: skip
+def test_nothing_fits_when_the_room_lacks_what_is_needed(
+    demo_room: SceneContext, reasoner: OfflineReasoner, text: str
+) -> None:
+    # the demo room has no lamp, screen, shower, toothbrush or hair dryer
+    answer = reasoner.answer(text, demo_room)
+    assert answer.entity_ids == () and answer.nothing_fits
+    assert answer.candidates  # the closest candidates come with it
+    assert "what would fit" in answer.explanation
+
+
+def test_a_state_of_a_thing_is_no_need(room: SceneContext) -> None:
+    # "dark" of a thing describes it; of the room it calls for light
+    assert LEXICAL.parse("this is dark and in front of the couch", room).kind == "refer"
+    assert LEXICAL.parse("a dark brown chair", room).kind == "refer"
+    assert LEXICAL.parse("it's too dark in here", room).kind == "action"
+
+
+@pytest.mark.parametrize(
+    ("text", "contradicted"),
+    [
+        ("the green cup", "green"),
+        ("the grey cup", "grey"),
+        ("the cup on the green box", "green"),
+        ("the chair near the purple table", "purple"),
+    ],
+)
+def test_a_contradicted_description_answers_none(
+    room: SceneContext, text: str, contradicted: str
+) -> None:
+    answer = LEXICAL.answer(text, room)
+    assert answer.entity_ids == () and answer.nothing_fits
+    assert f"contradicts {contradicted!r}" in answer.explanation
+    assert answer.to_dict()["nothing_fits"] is True
+
+
+@pytest.mark.parametrize(("text", "expected"), [("the red cup", (2,)),
+                                                ("the cup on the white box", (4,))])  # fmt: skip
+def test_the_satisfiable_originals_still_answer(
+    room: SceneContext, text: str, expected: tuple[int, ...]
+) -> None:
+    answer = LEXICAL.answer(text, room)
+    assert answer.entity_ids == expected and not answer.nothing_fits
+
+
+def test_colour_by_perceptual_distance_from_rgb(tmp_path: Path) -> None:
+    # two armchairs measured as rgb only (no colour names given): "the brown armchair"
+    # and "the white one" pick by CIELAB distance; a navy one is "blue", never "red"
+    doc = {"scene_id": "rgb", "objects": [
+        {"id": 1, "label": "armchair", "center": [0, 0, 0.4], "size": [0.8, 0.8, 0.8],
+         "rgb": [120, 80, 50]},
+        {"id": 2, "label": "armchair", "center": [3, 0, 0.4], "size": [0.8, 0.8, 0.8],
+         "rgb": [225, 222, 215]},
+        {"id": 3, "label": "pillow", "center": [3, 0, 0.9], "size": [0.4, 0.3, 0.2],
+         "rgb": [20, 40, 130]},
+        {"id": 4, "label": "floor", "center": [1.5, 0, -0.01], "size": [6, 4, 0.02]},
+    ]}  # fmt: skip
+    ctx = SceneContext(objects_to_scene_graph(parse_objects(doc)))
+    assert LEXICAL.answer("the brown armchair", ctx).entity_ids == (1,)
+    assert LEXICAL.answer("the whitish armchair", ctx).entity_ids == (2,)
+    assert LEXICAL.answer("the armchair under the navy pillow", ctx).entity_ids == (2,)
+    red = LEXICAL.answer("the red pillow", ctx)
+    assert red.entity_ids == () and red.nothing_fits
+    stored = {a.key: a.value for a in ctx.graph.get_entity(3).attributes}
+    assert stored == {"rgb": "#142882", "color": "blue"}
+
+
+@pytest.mark.shared_data
+def test_needs_on_scene0000(reasoner: OfflineReasoner) -> None:
+    from causalsplat.bench._reasoning_referit import objects_document
+    from tests.conftest import shared_data_path
+
+    root = shared_data_path("referit3d_scannet_objects")
+    ctx = SceneContext(
+        objects_to_scene_graph(parse_objects(objects_document("scene0000_00", root)))
+    )
+    everything = _non_structural(ctx)
+
+    def cats(text: str) -> set[str]:
+        answer = reasoner.answer(text, ctx)
+        assert len(answer.entity_ids) < everything // 2, text
+        return set(answer.categories)
+
+    assert cats("How can I keep my drinks cold?") == {"refrigerator"}
+    assert cats("What can I use to heat up my lunch?") <= {"microwave", "toaster oven"}
+    assert "sink" not in cats("I just washed my hands, where can I dry them?")
+    assert "shower" not in cats("I need warm air to dry my hair")
+    for text in ("which thing needs watering?", "where can the baby play?", "I'm hot"):
+        cats(text)
