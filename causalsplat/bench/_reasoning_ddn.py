@@ -113,6 +113,28 @@ def placements(split: str) -> tuple[list[Placement], int]:
     return out, len(demands)
 
 
+def absent_placements(split: str) -> list[Placement]:
+    """Each placeable instruction of a split in a scan that holds *no* acceptable object
+    (seeded by the text, among scans of :data:`MIN_OTHER_LABELS` or more counted labels):
+    the right answer is nothing. The labels map is partial, so a scan may still hold
+    something that would do; the rate of empty answers here is a lower bound on how
+    often the reasoner says "nothing fits" when nothing does."""
+    rows, _ = placements(split)
+    scans = scan_labels()
+    names = sorted(scans)
+    out = []
+    for row in rows:
+        pool = [
+            s
+            for s in names
+            if not scans[s] & row.acceptable and len(scans[s] - _NOT_COUNTED) >= MIN_OTHER_LABELS
+        ]
+        if pool:
+            scan = random.Random(f"ddn-absent:{row.text}").choice(pool)
+            out.append(Placement(row.text, scan, row.acceptable))
+    return out
+
+
 def evaluate(
     rows: Sequence[Placement], reasoner: Reasoner, graphs: ref.ScanGraphs
 ) -> list[Outcome]:

@@ -196,3 +196,69 @@ def accuracy(outcomes: Sequence[RowOutcome], group: str | None = None) -> tuple[
 def acc_at(outcomes: Sequence[RowOutcome], k: float, group: str | None = None) -> float:
     chosen = [o for o in outcomes if group is None or group in o.row.groups]
     return sum(o.box_iou >= k for o in chosen) / len(chosen) if chosen else 0.0
+
+
+def first_label_baseline(
+    rows: Iterable[Row], graphs: ScanGraphs, reasoner: Any
+) -> list[RowOutcome]:
+    """The naive baseline: every object of the first scene label the description names
+    (by the reasoner's own category index), whatever else it says."""
+    from causalsplat.reason._mentions import mention_at
+    from causalsplat.reason._text import tokenize
+
+    out = []
+    for row in rows:
+        ctx = graphs.context(row.scan)
+        start = time.perf_counter()
+        tokens = tokenize(row.text)
+        index = reasoner.index(ctx)
+        categories: tuple[str, ...] = ()
+        for i in range(len(tokens)):
+            m = mention_at(index, tokens, i)
+            if m is not None and m.categories:
+                categories = m.categories
+                break
+        predicted = tuple(sorted(e.id for e in ctx.graph.entities if e.category in categories))
+        out.append(RowOutcome(row, predicted, referit_correct(predicted, row.target), 0.0, None,
+                              time.perf_counter() - start))  # fmt: skip
+    return out
+
+
+#: A colour word and one the same object cannot also be called (opposite lightness or hue).
+OPPOSITE_COLOURS = {
+    "white": "black", "black": "white", "brown": "blue", "blue": "brown", "gray": "red",
+    "grey": "red", "red": "green", "green": "red", "beige": "blue", "tan": "blue",
+    "yellow": "purple", "purple": "yellow", "orange": "blue", "pink": "green",
+    "silver": "brown", "teal": "red",
+}  # fmt: skip
+
+
+def contradicted_rows(rows: Iterable[Row], graphs: ScanGraphs) -> list[tuple[Row, Row]]:
+    """(original, contradicted) pairs: a description's first colour word replaced by its
+    :data:`OPPOSITE_COLOURS` entry, kept only where no object of the target's label in
+    the scan is nearest to the new colour term (so that nothing there fits the variant)."""
+    import re
+
+    from causalsplat.colors import hex_to_rgb, names_of
+
+    out = []
+    for row in rows:
+        words = re.findall(r"[a-z]+", row.text.lower())
+        word = next((w for w in words if w in OPPOSITE_COLOURS), None)
+        if word is None:
+            continue
+        new = OPPOSITE_COLOURS[word]
+        ctx = graphs.context(row.scan)
+        label = ctx.by_id[row.target].category if row.target in ctx.by_id else None
+        same = [e for e in ctx.graph.entities if e.category == label]
+        term = "gray" if new == "grey" else new
+        fits = False
+        for e in same:
+            rgb = next((hex_to_rgb(a.value) for a in e.attributes if a.key == "rgb"), None)
+            if rgb is not None and names_of(rgb)[0] == term:
+                fits = True
+        if fits or not same:
+            continue
+        text = re.sub(rf"\b{word}\b", new, row.text, count=1, flags=re.IGNORECASE)
+        out.append((row, Row(row.dataset, row.scan, text, row.target, row.groups)))
+    return out

@@ -53,6 +53,9 @@ def _row(*cells: object) -> str:
     return "| " + " | ".join(str(c) for c in cells) + " |"
 
 
+NAIVE_REFER = "naive: every object of the first label named"
+
+
 def _referit(graphs: ref.ScanGraphs, quick: bool, tmp: Path) -> tuple[list[str], dict[str, Any]]:
     from causalsplat.reason.offline import OfflineReasoner
 
@@ -103,6 +106,37 @@ def _referit(graphs: ref.ScanGraphs, quick: bool, tmp: Path) -> tuple[list[str],
         a25, a50 = ref.acc_at(sr, 0.25, group), ref.acc_at(sr, 0.5, group)
         lines.append(f"| {group or '**all**'} | {n} | {_pct(a25)} | {_pct(a50)} |")
         data[f"scanrefer/{group or 'all'}"] = {"n": n, "acc25": a25, "acc50": a50}
+    # the same rows without colour (the tables' avg_rgba left out), and the naive baseline
+    plain = ref.ScanGraphs(f"sqlite:///{tmp / 'referit-plain.db'}", colour=False)
+    without = ref.evaluate_rows(sets["scanrefer"], reasoner, plain)
+    plain.close()
+    naive = ref.first_label_baseline(sets["scanrefer"], graphs, reasoner)
+    runs = (("offline, no colour", without), (NAIVE_REFER, naive))
+    for name, outs in runs:
+        cells = []
+        for group in ("unique", "multiple", None):
+            cells.append(_pct(ref.acc_at(outs, 0.25, group) if name.startswith("offline")
+                              else ref.accuracy(outs, group)[1]))  # fmt: skip
+        data[f"scanrefer/{name}"] = cells
+    lines += ["", "The same descriptions without the tables' colours, and the naive baseline "
+              "(Acc@0.25; the baseline is right only when the label is unique):", "",
+              "| run | unique | multiple | all |", "|---|---:|---:|---:|"]  # fmt: skip
+    lines += [f"| {name} | {' | '.join(data[f'scanrefer/{name}'])} |" for name, _ in runs]
+    # "none": each description with a colour word, and the same with the word replaced by
+    # one that no object of the target's label is nearest to
+    pairs = ref.contradicted_rows(sets["scanrefer"], graphs)
+    originals = ref.evaluate_rows([p[0] for p in pairs], reasoner, graphs)
+    variants = ref.evaluate_rows([p[1] for p in pairs], reasoner, graphs)
+    wrong_none = sum(not o.predicted for o in originals) / max(1, len(originals))
+    right_none = sum(not o.predicted for o in variants) / max(1, len(variants))
+    data["scanrefer/none"] = {"n": len(pairs), "right_none": right_none,
+                              "wrong_none": wrong_none}  # fmt: skip
+    lines += ["", f"\"None\": {len(pairs)} of these descriptions name a colour; with it "
+              "replaced by its opposite (white/black, brown/blue...) where no object of the "
+              f"target's label is nearest to the new colour, {_pct(right_none)} are rightly "
+              f"answered with nothing; the originals are wrongly answered with nothing in "
+              f"{_pct(wrong_none)}. (Colours are the tables' mean vertex colours, darkened "
+              "and desaturated by the scans' lighting.)"]  # fmt: skip
     per_row = [o.seconds for rows in outcomes.values() for o in rows]
     data["ms_per_utterance"] = 1000 * sum(per_row) / max(1, len(per_row))
     lines += ["", f"Mean reasoning time {data['ms_per_utterance']:.1f} ms per utterance over "
@@ -154,6 +188,22 @@ def _ddn(graphs: ref.ScanGraphs, quick: bool) -> tuple[list[str], dict[str, Any]
         lines.append(_row(name, summ["n"], _pct(summ["accuracy"]), _pct(summ["top3"]),
                           _pct(summ["empty"]), _pct(summ["errors"]),
                           f"{1000 * seconds[name] / max(1, len(outs)):.1f}"))  # fmt: skip
+    absent = ddn.absent_placements("val")
+    if quick:
+        absent = absent[:60]
+    reasoner = configs[-1][1]
+    none = ddn.evaluate(absent, reasoner, graphs)
+    rate = sum(o.empty for o in none) / max(1, len(none))
+    placed_empty = data[f"ddn/{configs[-1][0]}"]["empty"]
+    data["ddn/absent"] = {"n": len(none), "nothing": rate, "placed_empty": placed_empty}
+    lines += [
+        "",
+        f"The same {len(none)} validation instructions, each in a seeded scan that holds no "
+        "acceptable object (the right answer is nothing; the label map is partial, so some "
+        f"scans still hold something that would do): {configs[-1][0]} answers nothing in "
+        f"{_pct(rate)} of them, and in {_pct(placed_empty)} of the placed ones (where it "
+        "should answer). The naive baseline always answers something.",
+    ]
     return lines, data
 
 
@@ -171,6 +221,9 @@ SHOWCASE: tuple[tuple[str, str], ...] = (
     ("spatial", "the trash can closest to the toilet"),
     ("counterfactual", "if the bed is removed, what falls?"),
     ("counterfactual", "if the kitchen counter is removed, what falls?"),
+    ("counterfactual", "what would fall if someone hauled the bed away?"),
+    ("commonsense", "I just washed my hands, where can I dry them?"),
+    ("commonsense", "which thing needs watering?"),
 )
 
 
