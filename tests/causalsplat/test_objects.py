@@ -102,6 +102,10 @@ BAD = [
     (one(attributes={"color": 3}), r"attributes.color: must be a string"),
     (one(colour="red"), "unknown keys"),
     (one(points=[[0, 0]]), r"points\[0\]: must be a list of three"),
+    (one(rgb=[0, 0]), r"objects\[0\].rgb: must be a list of three"),
+    (one(rgb=[0, 256, 0]), r"objects\[0\].rgb: each channel must be in \[0, 255\]"),
+    (one(rgb=[-1, 0, 0]), r"objects\[0\].rgb: each channel must be in \[0, 255\]"),
+    (one(rgb="#ffffff"), r"objects\[0\].rgb: must be a list of three"),
 ]
 
 
@@ -162,3 +166,16 @@ def test_ingest_real_scannet_object_table(tmp_path: Path) -> None:
     window = by_id[0]  # the table's extension is [0.609, 3.405, 1.570, 2.354, 3.637, 2.143]
     assert window.bbox_min == pytest.approx((0.6091, 3.4048, 1.5704), abs=1e-4)
     assert window.bbox_max == pytest.approx((2.3535, 3.6367, 2.1427), abs=1e-4)
+
+
+def test_rgb_is_stored_with_the_nearest_colour_term() -> None:
+    doc = one(rgb=[230, 228, 222])
+    doc["objects"].append({"id": 2, "label": "b", "center": [3, 0, 0], "size": [1, 1, 1],
+                           "rgb": [120, 80, 50], "attributes": {"color": "walnut"}})  # fmt: skip
+    graph = objects_to_scene_graph(parse_objects(doc), scene_id="s")
+    first, second = (
+        {(a.key, a.value, a.source.value) for a in e.attributes} for e in graph.entities
+    )
+    assert first == {("rgb", "#e6e4de", "input"), ("color", "white", "geometry")}
+    # a colour name the file gives stands; the measured colour is kept beside it
+    assert second == {("rgb", "#785032", "input"), ("color", "walnut", "input")}

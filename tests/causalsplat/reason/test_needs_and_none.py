@@ -159,3 +159,25 @@ def test_needs_on_scene0000(reasoner: OfflineReasoner) -> None:
     assert "shower" not in cats("I need warm air to dry my hair")
     for text in ("which thing needs watering?", "where can the baby play?", "I'm hot"):
         cats(text)
+
+
+def test_colour_programs_agree_on_every_executor(tmp_path: Path) -> None:
+    from causalsplat import open_store
+
+    doc = {"scene_id": "rgb", "objects": [
+        {"id": 1, "label": "armchair", "center": [0, 0, 0.4], "size": [0.8, 0.8, 0.8],
+         "rgb": [120, 80, 50]},
+        {"id": 2, "label": "armchair", "center": [3, 0, 0.4], "size": [0.8, 0.8, 0.8],
+         "rgb": [225, 222, 215]},
+        {"id": 3, "label": "armchair", "center": [6, 0, 0.4], "size": [0.8, 0.8, 0.8],
+         "rgb": [110, 75, 48]},
+    ]}  # fmt: skip
+    path = tmp_path / "rgb.json"
+    path.write_text(__import__("json").dumps(doc))
+    with open_store(f"sqlite:///{tmp_path / 's.db'}") as store:
+        scene = store.ingest_objects(path)
+        answer = scene.ask("all the chocolate armchairs")
+        assert "rgb=#" in answer.program.to_text()
+        results = {ex: scene.run(answer.program, executor=ex).answer
+                   for ex in ("networkx", "sql", "sparql")}  # fmt: skip
+        assert set(results.values()) == {(1, 3)}
