@@ -168,12 +168,12 @@ class Planner:
 
     def _colour(self, step: int, word: str) -> int | None:
         """A colour word, by perceptual distance to the candidates' stored colours
-        (``rgb``; :mod:`causalsplat.colors`): those of the candidates within
-        :data:`COLOUR_MARGIN` of the nearest are kept, and when even the nearest is farther
-        than :data:`COLOUR_CONTRADICTED` beyond its own colour's name, the scene
-        contradicts the word and nothing is kept. ``None`` (match the stored names) when
-        no candidate stores a colour, or when the word's basic term is some candidates'
-        stored ``color`` name (the readable filter says the same)."""
+        (``rgb``; :mod:`causalsplat.colors`). A basic term selects the candidates whose
+        stored ``color`` (the nearest term to their colour) it is; when even the nearest
+        candidate is farther than :data:`COLOUR_CONTRADICTED` beyond its own colour's name,
+        the scene contradicts the word and nothing is kept; any other colour word ("navy",
+        "chocolate") keeps the candidates within :data:`COLOUR_MARGIN` of the nearest.
+        ``None`` (match stored names as written) when no candidate stores a colour."""
         b = self.b
         term = names_of(WORDS[_colour_word(word)])[0]
         ids = b.value(step)
@@ -194,6 +194,11 @@ class Planner:
             b.note(f"the scene contradicts {word!r}: nothing here is {word} (closest: "
                    f"{closest_text})")  # fmt: skip
             return b.add(Op.DIFFERENCE, step, step)
+        if _colour_word(word) in BASIC:
+            # a basic term no candidate is named by: measured colours (lit, shaded) do not
+            # single one out by distance alone (on ScanNet's built and tabled colours this
+            # narrowed to the wrong object as often as to the right one)
+            return step
         keep = sorted(i for i in known if dist[i] <= best + COLOUR_MARGIN)
         if len(keep) == len(ids):
             return step
