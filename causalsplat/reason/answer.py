@@ -101,11 +101,7 @@ class Answer:
         """Nothing in the scene fits what was asked (an empty set answer that is not a
         counterfactual's "nothing falls"); :attr:`candidates` then holds what came
         closest and :attr:`explanation` says what the scene contradicts."""
-        return (
-            not self.entity_ids
-            and self.value is None
-            and self.query_type != "counterfactual"
-        )
+        return not self.entity_ids and self.value is None and self.query_type != "counterfactual"
 
     def to_dict(self, *, entities: list[dict[str, Any]] | None = None) -> dict[str, Any]:
         """The JSON document of ``causalsplat ask --json`` (DESIGN §10)."""
