@@ -182,26 +182,22 @@ class _Table:
 
     @classmethod
     def of(cls, texts: Sequence[str], vectors: np.ndarray) -> _Table:
-        owners = [t.split(":", 1)[0].strip() for t in texts]
-        order = sorted(range(len(texts)), key=lambda i: owners[i])
-        names = tuple(dict.fromkeys(owners[i] for i in order))
-        first = {n: k for k, n in reversed(list(enumerate(owners[i] for i in order)))}
-        starts = np.asarray([first[n] for n in names], dtype=np.int64)
+        owners = np.asarray([t.split(":", 1)[0].strip() for t in texts])
+        order = np.argsort(owners, kind="stable")
+        owners = owners[order]
+        starts = np.flatnonzero(np.r_[True, owners[1:] != owners[:-1]])
+        names = tuple(str(n) for n in owners[starts])
         return cls(names, np.asarray(vectors, dtype=np.float64)[order], starts)
 
     def best_two(self, q: np.ndarray) -> np.ndarray:
         """Per category, the mean of its two best scores (its one score when alone)."""
         s = self.vectors @ q
-        ends = np.append(self.starts[1:], len(s))
-        out = np.empty(len(self.names))
-        for k, (a, b) in enumerate(zip(self.starts, ends, strict=True)):
-            part = s[a:b]
-            if len(part) == 1:
-                out[k] = part[0]
-            else:
-                two = np.partition(part, len(part) - 2)[-2:]
-                out[k] = 0.5 * float(two.sum())
-        return out
+        ends = np.r_[self.starts[1:], len(s)]
+        group = np.repeat(np.arange(len(self.starts)), ends - self.starts)
+        ranked = s[np.lexsort((s, group))]  # each group's scores, ascending
+        first = ranked[ends - 1]
+        second = np.where(ends - self.starts > 1, ranked[np.maximum(ends - 2, 0)], first)
+        return 0.5 * (first + second)
 
 
 def vectors_path() -> Any:
