@@ -83,6 +83,18 @@ def test_provenance_records_every_mask_read() -> None:
     ]  # fmt: skip
 
 
+def _one_entity(n: int) -> tuple[InstanceAssignment, MaskEvidence]:
+    """Every one of ``n`` Gaussians in entity 0, with no mask evidence."""
+    assignment = InstanceAssignment(
+        labels=np.zeros(n, dtype=np.int64), mask_entity=np.zeros(0, dtype=np.int64),
+        centers=np.eye(1, 2, dtype=np.float32), score=np.ones(n, dtype=np.float32),
+        n_clusters=1, n_noise_masks=0,
+    )  # fmt: skip
+    evidence = MaskEvidence(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0),
+                            np.zeros((0, 2), np.float32), sp.csr_matrix((0, n)))  # fmt: skip
+    return assignment, evidence
+
+
 def test_centroid_is_the_trimmed_mean_and_lies_in_the_box() -> None:
     # 95 Gaussians at x = 0 and 5 leaked ones at x = 100: the 10 %-trimmed box is x in
     # [0, 0]; the plain mean (5) would lie outside it, the trimmed mean is 0. Along y and
@@ -91,13 +103,7 @@ def test_centroid_is_the_trimmed_mean_and_lies_in_the_box() -> None:
     means[:, 0] = 0.0
     means[95:, 0] = 100.0
     scene = GaussianScene.from_points(means, np.full((100, 3), 0.5), np.full(100, 0.05))
-    assignment = InstanceAssignment(
-        labels=np.zeros(100, dtype=np.int64), mask_entity=np.zeros(0, dtype=np.int64),
-        centers=np.eye(1, 2, dtype=np.float32), score=np.ones(100, dtype=np.float32),
-        n_clusters=1, n_noise_masks=0,
-    )  # fmt: skip
-    evidence = MaskEvidence(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0),
-                            np.zeros((0, 2), np.float32), sp.csr_matrix((0, 100)))  # fmt: skip
+    assignment, evidence = _one_entity(100)
     (entity,) = build_entities(scene, assignment, evidence, [], NodeConfig(bbox_quantile=0.1))
     assert entity.bbox_min[0] == entity.bbox_max[0] == entity.centroid[0] == 0.0
     for axis in (1, 2):
@@ -115,13 +121,7 @@ def test_colour_is_the_opacity_weighted_mean_of_the_base_colours() -> None:
     scene = GaussianScene.from_points(
         means, rgb, np.full(3, 0.05), opacity=np.array([0.9, 0.9, 0.01])
     )
-    assignment = InstanceAssignment(
-        labels=np.zeros(3, dtype=np.int64), mask_entity=np.zeros(0, dtype=np.int64),
-        centers=np.eye(1, 2, dtype=np.float32), score=np.ones(3, dtype=np.float32),
-        n_clusters=1, n_noise_masks=0,
-    )  # fmt: skip
-    evidence = MaskEvidence(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0),
-                            np.zeros((0, 2), np.float32), sp.csr_matrix((0, 3)))  # fmt: skip
+    assignment, evidence = _one_entity(3)
     (entity,) = build_entities(scene, assignment, evidence, [])
     values = {a.key: a.value for a in entity.attributes}
     w = np.array([0.9, 0.9, 0.01])

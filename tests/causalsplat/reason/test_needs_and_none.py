@@ -9,6 +9,7 @@ answers nothing, on the target or on an anchor.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -115,18 +116,24 @@ def test_the_satisfiable_originals_still_answer(
     assert answer.entity_ids == expected and not answer.nothing_fits
 
 
+def _coloured(*objects: tuple[str, float, tuple[int, int, int]]) -> dict[str, Any]:
+    """An objects document of 0.8 m cubes on the floor: (label, x, rgb) each, ids from 1."""
+    return {"scene_id": "rgb", "objects": [
+        {"id": k, "label": label, "center": [x, 0, 0.4], "size": [0.8, 0.8, 0.8],
+         "rgb": list(rgb)}
+        for k, (label, x, rgb) in enumerate(objects, start=1)
+    ]}  # fmt: skip
+
+
 def test_colour_by_perceptual_distance_from_rgb(tmp_path: Path) -> None:
     # two armchairs measured as rgb only (no colour names given): "the brown armchair"
     # and "the white one" pick by CIELAB distance; a navy one is "blue", never "red"
-    doc = {"scene_id": "rgb", "objects": [
-        {"id": 1, "label": "armchair", "center": [0, 0, 0.4], "size": [0.8, 0.8, 0.8],
-         "rgb": [120, 80, 50]},
-        {"id": 2, "label": "armchair", "center": [3, 0, 0.4], "size": [0.8, 0.8, 0.8],
-         "rgb": [225, 222, 215]},
+    doc = _coloured(("armchair", 0, (120, 80, 50)), ("armchair", 3, (225, 222, 215)))
+    doc["objects"] += [
         {"id": 3, "label": "pillow", "center": [3, 0, 0.9], "size": [0.4, 0.3, 0.2],
          "rgb": [20, 40, 130]},
         {"id": 4, "label": "floor", "center": [1.5, 0, -0.01], "size": [6, 4, 0.02]},
-    ]}  # fmt: skip
+    ]  # fmt: skip
     ctx = SceneContext(objects_to_scene_graph(parse_objects(doc)))
     assert LEXICAL.answer("the brown armchair", ctx).entity_ids == (1,)
     assert LEXICAL.answer("the whitish armchair", ctx).entity_ids == (2,)
@@ -164,14 +171,8 @@ def test_needs_on_scene0000(reasoner: OfflineReasoner) -> None:
 def test_colour_programs_agree_on_every_executor(tmp_path: Path) -> None:
     from causalsplat import open_store
 
-    doc = {"scene_id": "rgb", "objects": [
-        {"id": 1, "label": "armchair", "center": [0, 0, 0.4], "size": [0.8, 0.8, 0.8],
-         "rgb": [120, 80, 50]},
-        {"id": 2, "label": "armchair", "center": [3, 0, 0.4], "size": [0.8, 0.8, 0.8],
-         "rgb": [225, 222, 215]},
-        {"id": 3, "label": "armchair", "center": [6, 0, 0.4], "size": [0.8, 0.8, 0.8],
-         "rgb": [110, 75, 48]},
-    ]}  # fmt: skip
+    doc = _coloured(("armchair", 0, (120, 80, 50)), ("armchair", 3, (225, 222, 215)),
+                    ("armchair", 6, (110, 75, 48)))  # fmt: skip
     path = tmp_path / "rgb.json"
     path.write_text(__import__("json").dumps(doc))
     with open_store(f"sqlite:///{tmp_path / 's.db'}") as store:
