@@ -135,7 +135,9 @@ def ask(
     click.echo(f"{answer.query_type} query, answered by {how}")
     if answer.value is not None:
         click.echo(f"answer: {answer.value}")
-    if not entities:
+    if answer.nothing_fits:
+        click.echo("nothing here fits (the explanation says why; closest candidates below)")
+    elif not entities:
         click.echo("no entity")
     for e in entities:
         click.echo(f"  {e['id']:>5}  {e['category']:<24} ext={e['external_id']}")

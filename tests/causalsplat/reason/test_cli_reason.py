@@ -82,3 +82,19 @@ def test_ask_shows_the_ranked_candidates(tiny_store: Store) -> None:
     text = runner.invoke(cli, [*args, "--no-embeddings"])
     assert text.exit_code == 0 and "candidates (best first):" in text.output
     assert " *1. towel" in text.output
+
+
+def test_ask_says_when_nothing_fits(tiny_store: Store) -> None:
+    url = tiny_store.graph_store.url
+    runner = CliRunner()
+    args = ["ask", "the purple table", "--scene", "synth-tiny-0", "--db", url, "--no-embeddings"]
+    text = runner.invoke(cli, args)
+    assert text.exit_code == 0, text.output
+    assert "nothing here fits" in text.output and "contradicts 'purple'" in text.output
+    doc = json.loads(runner.invoke(cli, [*args, "--json"]).output)
+    assert doc["answer"] == [] and doc["nothing_fits"] is True
+    # a counterfactual where nothing falls is an answer, not "nothing fits"
+    doc = json.loads(runner.invoke(cli, ["ask", "what falls if the floor is removed?",
+                                         "--scene", "synth-tiny-0", "--db", url,
+                                         "--json"]).output)  # fmt: skip
+    assert doc["query_type"] == "counterfactual" and doc["nothing_fits"] is False
