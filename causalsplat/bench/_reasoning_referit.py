@@ -262,3 +262,37 @@ def contradicted_rows(rows: Iterable[Row], graphs: ScanGraphs) -> list[tuple[Row
         text = re.sub(rf"\b{word}\b", new, row.text, count=1, flags=re.IGNORECASE)
         out.append((row, Row(row.dataset, row.scan, text, row.target, row.groups)))
     return out
+
+
+#: Phenomena of referring language, each recognised by its words (a description may show
+#: several): the breakdown ``causalsplat bench --only reasoning`` reports on the dev sets.
+PHENOMENA: dict[str, frozenset[str]] = {
+    "left / right": frozenset({"left", "right", "leftmost", "rightmost"}),
+    "viewpoint": frozenset({"facing", "face", "looking", "entering", "enter", "standing",
+                            "sitting", "walk", "walking"}),
+    "closest / farthest": frozenset({"closest", "nearest", "farthest", "furthest", "closer",
+                                     "farther", "further"}),
+    "middle": frozenset({"middle", "center", "centre"}),
+    "ordinal": frozenset({"first", "second", "third", "fourth", "fifth", "2nd", "3rd", "4th",
+                          "last"}),
+    "negation / exclusion": frozenset({"not", "no", "without", "other", "except", "isn",
+                                       "nor"}),
+    "between": frozenset({"between"}),
+    "size": frozenset({"small", "smaller", "smallest", "large", "larger", "largest", "big",
+                       "bigger", "biggest", "tall", "taller", "tallest", "short", "shorter",
+                       "shortest", "long", "longer", "wide", "wider", "narrow"}),
+    "arrangement": frozenset({"row", "group", "cluster", "pair", "line", "set", "stack"}),
+}  # fmt: skip
+
+
+def phenomena(text: str) -> tuple[str, ...]:
+    """The :data:`PHENOMENA` a description shows, and ``colour`` when it names a colour."""
+    import re
+
+    from causalsplat.colors import is_color_word
+
+    words = set(re.findall(r"[a-z0-9]+", text.lower()))
+    found = [name for name, cues in PHENOMENA.items() if cues & words]
+    if any(is_color_word(w) for w in words):
+        found.insert(0, "colour")
+    return tuple(found)

@@ -56,6 +56,36 @@ def _row(*cells: object) -> str:
 NAIVE_REFER = "naive: every object of the first label named"
 
 
+def _phenomena(
+    graphs: ref.ScanGraphs, reasoner: Any, quick: bool, data: dict[str, Any]
+) -> list[str]:
+    """Accuracy by phenomenon of referring language on the *dev* sets (Nr3D and ScanRefer
+    train samples: where development looks; the test and val rows above are not split)."""
+    limit = 200 if quick else None
+    dev = {
+        "Nr3D train": _sample(ref.nr3d_rows("train_sampled1000"), limit),
+        "ScanRefer train": _sample(ref.scanrefer_rows("train_sampled1000"), limit),
+    }
+    results = {name: ref.evaluate_rows(rows, reasoner, graphs) for name, rows in dev.items()}
+    names = ["colour", *ref.PHENOMENA, "none of these"]
+    lines = ["Accuracy by phenomenon on the development sets (a description counts under "
+             "every phenomenon its words show; n, accuracy):", "",
+             _row("phenomenon", *dev), "|---|" + "---:|" * len(dev)]  # fmt: skip
+    for phen in names:
+        cells = []
+        for name, outs in results.items():
+            chosen = [
+                o for o in outs
+                if (phen in ref.phenomena(o.row.text)
+                    or (phen == "none of these" and not ref.phenomena(o.row.text)))
+            ]  # fmt: skip
+            acc = sum(o.correct for o in chosen) / max(1, len(chosen))
+            data[f"phenomena/{name}/{phen}"] = {"n": len(chosen), "accuracy": acc}
+            cells.append(f"{len(chosen)}, {_pct(acc)}")
+        lines.append(_row(phen, *cells))
+    return lines
+
+
 def _referit(graphs: ref.ScanGraphs, quick: bool, tmp: Path) -> tuple[list[str], dict[str, Any]]:
     from causalsplat.reason.offline import OfflineReasoner
 
@@ -122,6 +152,13 @@ def _referit(graphs: ref.ScanGraphs, quick: bool, tmp: Path) -> tuple[list[str],
               "(Acc@0.25; the baseline is right only when the label is unique):", "",
               "| run | unique | multiple | all |", "|---|---:|---:|---:|"]  # fmt: skip
     lines += [f"| {name} | {' | '.join(data[f'scanrefer/{name}'])} |" for name, _ in runs]
+    naive_sr3d = ref.first_label_baseline(sets["sr3d"], graphs, reasoner)
+    naive_nr3d = ref.first_label_baseline(sets["nr3d"], graphs, reasoner)
+    data["naive/sr3d"], data["naive/nr3d"] = (ref.accuracy(naive_sr3d)[1],
+                                              ref.accuracy(naive_nr3d)[1])  # fmt: skip
+    lines += ["", "The same naive baseline on the Sr3D test rows: "
+              f"{_pct(data['naive/sr3d'])}; on the Nr3D test rows: {_pct(data['naive/nr3d'])} "
+              "(ReferIt3D targets have distractors of their class by design)."]  # fmt: skip
     # "none": each description with a colour word, and the same with the word replaced by
     # one that no object of the target's label is nearest to
     pairs = ref.contradicted_rows(sets["scanrefer"], graphs)
@@ -137,6 +174,7 @@ def _referit(graphs: ref.ScanGraphs, quick: bool, tmp: Path) -> tuple[list[str],
               f"answered with nothing; the originals are wrongly answered with nothing in "
               f"{_pct(wrong_none)}. (Colours are the tables' mean vertex colours, darkened "
               "and desaturated by the scans' lighting.)"]  # fmt: skip
+    lines += ["", *_phenomena(graphs, reasoner, quick, data)]
     per_row = [o.seconds for rows in outcomes.values() for o in rows]
     data["ms_per_utterance"] = 1000 * sum(per_row) / max(1, len(per_row))
     lines += ["", f"Mean reasoning time {data['ms_per_utterance']:.1f} ms per utterance over "
