@@ -142,7 +142,10 @@ GENERIC_TARGETS = frozenset({"one", "ones", "thing", "things", "object", "object
                              "what", "which", "where"})  # fmt: skip
 WH_WORDS = frozenset({"what", "which", "where", "who", "whatever"})
 VIEW_TRIGGERS = frozenset({"facing", "face", "looking", "look", "standing", "stand", "sitting",
-                           "viewing", "view", "seen", "entering", "enter", "walking"})  # fmt: skip
+                           "viewing", "view", "seen", "entering", "enter", "walking",
+                           *(_ENTERING := frozenset({"enters", "entered", "walk", "walks",
+                                                     "walked", "come", "comes", "coming",
+                                                     "came"}))})  # fmt: skip
 #: Words that open a viewpoint clause inside a sentence ("the chair on the left *when*
 #: facing the bed") and words for the observer that may stand before its trigger.
 VIEW_SUBORDINATORS = frozenset({"when", "if", "while", "as", "whilst", "once", "after"})
@@ -160,7 +163,8 @@ FACING_PLACES = frozenset({"foot", "front"})
 LOOKING = frozenset({"facing", "face", "looking", "look", "viewing", "view", "seen", "toward",
                      "towards"})  # fmt: skip
 #: Viewpoint triggers after which the observer stands *at* the anchor (not looking at it).
-STANDING_AT = frozenset({"standing", "stand", "sitting", "entering", "enter", "walking"})
+STANDING_AT = frozenset({"standing", "stand", "sitting", "entering", "enter", "walking",
+                         *_ENTERING})  # fmt: skip
 REMOVAL_TRIGGERS = re.compile(
     r"\b(?:remov\w*|take[ns]? away|took away|taking away|pull(?:ed|s)? (?:out|away)|"
     r"gone|disappear\w*|was not there|were not there|is not there|are not there|"

@@ -220,3 +220,22 @@ def test_of_several_things_above_the_anchor_the_one_most_directly_over_it_is_mea
     assert "horizontally" in answer.explanation
     # closeness words keep the 3D distance
     assert ask(ctx, "the picture closest to the box") == (2,)
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        # the observer enters at the door (0.5, 3.95) and looks into the room: chair 5 is
+        # on the right, chair 7 on the left
+        ("as you come in through the door, the chair on your right", (5,)),
+        ("when you walk in the door, the chair on the right", (5,)),
+        ("as you enter the room through the door, the chair on the left", (7,)),
+        ("when you walk in the door, the chair on the left", (7,)),
+    ],
+)
+def test_an_entrance_is_a_viewpoint(
+    room: SceneContext, text: str, expected: tuple[int, ...]
+) -> None:
+    ins = REASONER.parse(text, room)
+    assert ins.viewpoint is not None and ins.standing_at
+    assert ask(room, text) == expected
