@@ -6,7 +6,8 @@ Reads stage 2's :class:`~causalsplat.reason.ground.Grounded` instruction only.
   target's relations (:class:`~causalsplat.reason.topology.Planner`); when several
   candidates are left, the one closest to the anchor of the last relation is taken
   (horizontally for ``above`` and ``below``: the one most directly over or under it), or,
-  with no anchor, the largest; the explanation says so.
+  with no anchor, the one nearest in colour to the phrase's colour word (by the stored
+  colours, when it names one), else the largest; the explanation says so.
 * A set question keeps every candidate; ``how many`` ends in ``count``, ``is there`` in
   ``exists``.
 * A counterfactual removes the grounded entities and asks what falls
@@ -173,8 +174,13 @@ def _referring(b: ProgramBuilder, planner: Planner, grounded: Grounded) -> tuple
             what = _CLOSEST_TO.get(metric, "both anchors")
             b.note(f"{n} candidates fit; took the one closest to {what}")
         else:
-            step = b.add(Op.ARGMAX, step, metric=Metric.VOLUME)
-            b.note(f"{n} candidates fit; took the largest")
+            closest = planner.closest_in_colour(step, target.attributes)
+            if closest is not None:
+                step = closest
+                b.note(f"{n} candidates fit; took the one nearest in colour")
+            else:
+                step = b.add(Op.ARGMAX, step, metric=Metric.VOLUME)
+                b.note(f"{n} candidates fit; took the largest")
     topological = bool(target.constraints) or ins.viewpoint is not None
     return _finish(b, ins, step), ("spatial" if topological else "intrinsic")
 

@@ -206,6 +206,24 @@ class Planner:
         b.note(f"{word}: {len(keep)} of {len(ids)} candidates by colour")
         return b.union([b.add(Op.FILTER_ATTRIBUTE, step, value=f"rgb={v}") for v in values])
 
+    def closest_in_colour(self, step: int, words: tuple[str, ...]) -> int | None:
+        """Of several candidates left for one, the one whose stored colour is nearest to the
+        phrase's colour word (``None`` without a colour word or stored colours, or when two
+        are equally near)."""
+        colour = next((w for w in words if is_color_word(w)), None)
+        if colour is None:
+            return None
+        known = {i: self.ctx.colour(i) for i in self.b.value(step)}
+        dist = {i: word_distance(colour, rgb) for i, rgb in known.items() if rgb is not None}
+        if len(dist) < 2:
+            return None
+        ranked = sorted(dist, key=lambda i: dist[i])
+        best = known[ranked[0]]
+        assert best is not None
+        if dist[ranked[1]] == dist[ranked[0]]:
+            return None
+        return self.b.add(Op.FILTER_ATTRIBUTE, step, value=f"rgb={rgb_to_hex(best)}")
+
     def _colour_names(self, step: int, word: str, term: str, ids: tuple[int, ...]) -> int | None:
         """Candidates that store colour names only (an objects file's ``color``): when
         every one has a name and none is the word or its basic term, the scene contradicts
@@ -414,11 +432,9 @@ class Planner:
         if np.side in ("left", "right") and b.size(step) > 1:
             step = self._side(step, np.side, np.ordinal or 1)
         elif np.side == "middle" and b.size(step) > 2:
-            axis, _ = self._side_axis(step)
-            ends = b.union(
-                [b.add(Op.ARGMIN, step, metric=axis), b.add(Op.ARGMAX, step, metric=axis)]
-            )
-            step = b.add(Op.DIFFERENCE, step, ends)
+            # the median of the row along the observer's left-right axis: "the middle one"
+            # of five is the third from the left (of four, the second)
+            step = self._side(step, "left", (b.size(step) + 1) // 2)
         return step
 
     def _side_axis(self, step: int) -> tuple[Metric, float]:

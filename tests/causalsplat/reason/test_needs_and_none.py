@@ -182,3 +182,15 @@ def test_colour_programs_agree_on_every_executor(tmp_path: Path) -> None:
         results = {ex: scene.run(answer.program, executor=ex).answer
                    for ex in ("networkx", "sql", "sparql")}  # fmt: skip
         assert set(results.values()) == {(1, 3)}
+
+
+def test_of_several_left_for_one_the_nearest_in_colour_is_taken() -> None:
+    # two grey armchairs (both named gray): "the white armchair" keeps both (no candidate
+    # is called white) and takes the lighter one, not the larger one
+    doc = _coloured(("armchair", 0, (150, 150, 150)), ("armchair", 3, (95, 95, 95)))
+    doc["objects"][1]["size"] = [1.2, 1.2, 1.0]
+    ctx = SceneContext(objects_to_scene_graph(parse_objects(doc)))
+    answer = LEXICAL.answer("the white armchair", ctx)
+    assert answer.entity_ids == (1,) and "nearest in colour" in answer.explanation
+    assert LEXICAL.answer("the black armchair", ctx).entity_ids == (2,)
+    assert LEXICAL.answer("the armchair", ctx).entity_ids == (2,)  # no colour: the largest

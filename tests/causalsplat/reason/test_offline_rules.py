@@ -239,3 +239,17 @@ def test_an_entrance_is_a_viewpoint(
     ins = REASONER.parse(text, room)
     assert ins.viewpoint is not None and ins.standing_at
     assert ask(room, text) == expected
+
+
+def test_the_middle_one_of_a_row_is_its_median() -> None:
+    from causalsplat.objects import objects_to_scene_graph, parse_objects
+
+    # five stools in a row along x; the largest is second from the left: "the middle
+    # stool" is the third, whichever way the row is seen
+    sizes = [0.4, 0.8, 0.4, 0.5, 0.4]
+    objects = [{"id": k, "label": "stool", "center": [1.0 * k, 2.0, 0.25],
+                "size": [s, s, 0.5]} for k, s in enumerate(sizes)]  # fmt: skip
+    ctx = SceneContext(objects_to_scene_graph(parse_objects({"scene_id": "row",
+                                                             "objects": objects})))  # fmt: skip
+    assert ask(ctx, "the middle stool") == (2,)
+    assert ask(ctx, "the stool in the middle") == (2,)
