@@ -107,16 +107,10 @@ class SceneContext:
             self.cache["attr-pairs"] = tuple(sorted(pairs))
         return self.cache["attr-pairs"]  # type: ignore[no-any-return]
 
-    def attribute_set(self, entity_id: int) -> frozenset[tuple[str, str]]:
-        """The ``(key, value)`` attributes of one entity."""
-        return frozenset((a.key, a.value) for a in self.graph.get_entity(entity_id).attributes)
-
     def colour(self, entity_id: int) -> tuple[float, float, float] | None:
         """The entity's stored mean colour (``rgb`` attribute, sRGB in [0, 1]) or ``None``."""
-        for a in self.graph.get_entity(entity_id).attributes:
-            if a.key == "rgb":
-                return hex_to_rgb(a.value)
-        return None
+        values = self.by_id[entity_id].attribute_values("rgb")
+        return hex_to_rgb(values[0]) if values else None
 
     def is_structural(self, entity: Entity) -> bool:
         return self.config.is_structural(entity.category)

@@ -175,31 +175,29 @@ class Planner:
         "chocolate") keeps the candidates within :data:`COLOUR_MARGIN` of the nearest.
         ``None`` (match stored names as written) when no candidate stores a colour."""
         b = self.b
-        term = names_of(WORDS[_colour_word(word)])[0]
+        name = _colour_word(word)
+        term = names_of(WORDS[name])[0]
         ids = b.value(step)
-        colours = {i: self.ctx.colour(i) for i in ids}
-        known = {i: c for i, c in colours.items() if c is not None}
+        known = self._colours(ids)
         if not known:
             return self._colour_names(step, word, term, ids)
-        named = [i for i in ids if ("color", term) in self.ctx.attribute_set(i)]
-        if named and _colour_word(word) in BASIC:
+        if name in BASIC and any(term in self._names(i) for i in ids):
             return b.add(Op.FILTER_ATTRIBUTE, step, value=f"color={term}")
         dist = {i: word_distance(word, rgb) for i, rgb in known.items()}
-        excess = {i: dist[i] - nearest_term_distance(known[i]) for i in known}
-        best = min(dist.values())
-        if min(excess.values()) > COLOUR_CONTRADICTED:
+        if min(dist[i] - nearest_term_distance(known[i]) for i in known) > COLOUR_CONTRADICTED:
             closest = sorted(known, key=lambda i: dist[i])[:3]
             self.contradicted.append(word)
             closest_text = ", ".join(f"#{i} {rgb_to_hex(known[i])}" for i in closest)
             b.note(f"the scene contradicts {word!r}: nothing here is {word} (closest: "
                    f"{closest_text})")  # fmt: skip
             return b.add(Op.DIFFERENCE, step, step)
-        if _colour_word(word) in BASIC:
+        if name in BASIC:
             # a basic term no candidate is named by: measured colours (lit, shaded) do not
             # single one out by distance alone (on ScanNet's built and tabled colours this
             # narrowed to the wrong object as often as to the right one)
             return step
-        keep = sorted(i for i in known if dist[i] <= best + COLOUR_MARGIN)
+        best = min(dist.values())
+        keep = [i for i in known if dist[i] <= best + COLOUR_MARGIN]
         if len(keep) == len(ids):
             return step
         values = sorted({rgb_to_hex(known[i]) for i in keep})
@@ -213,22 +211,33 @@ class Planner:
         colour = next((w for w in words if is_color_word(w)), None)
         if colour is None:
             return None
-        known = {i: self.ctx.colour(i) for i in self.b.value(step)}
-        dist = {i: word_distance(colour, rgb) for i, rgb in known.items() if rgb is not None}
-        if len(dist) < 2:
+        known = self._colours(self.b.value(step))
+        if len(known) < 2:
             return None
-        ranked = sorted(dist, key=lambda i: dist[i])
-        best = known[ranked[0]]
-        assert best is not None
-        if dist[ranked[1]] == dist[ranked[0]]:
+        dist = {i: word_distance(colour, rgb) for i, rgb in known.items()}
+        first, second = sorted(dist, key=lambda i: dist[i])[:2]
+        if dist[first] == dist[second]:
             return None
-        return self.b.add(Op.FILTER_ATTRIBUTE, step, value=f"rgb={rgb_to_hex(best)}")
+        return self.b.add(Op.FILTER_ATTRIBUTE, step, value=f"rgb={rgb_to_hex(known[first])}")
+
+    def _colours(self, ids: tuple[int, ...]) -> dict[int, tuple[float, float, float]]:
+        """The stored colours of those of ``ids`` that have one."""
+        out = {}
+        for i in ids:
+            rgb = self.ctx.colour(i)
+            if rgb is not None:
+                out[i] = rgb
+        return out
+
+    def _names(self, entity_id: int) -> tuple[str, ...]:
+        """The entity's stored colour names."""
+        return self.ctx.by_id[entity_id].attribute_values("color")
 
     def _colour_names(self, step: int, word: str, term: str, ids: tuple[int, ...]) -> int | None:
         """Candidates that store colour names only (an objects file's ``color``): when
         every one has a name and none is the word or its basic term, the scene contradicts
         the word; otherwise ``None`` (the stored names are matched as written)."""
-        names = [{v for k, v in self.ctx.attribute_set(i) if k == "color"} for i in ids]
+        names = [self._names(i) for i in ids]
         if not ids or not all(names):
             return None
         wanted = {normalise_text(word), term}
@@ -264,12 +273,13 @@ class Planner:
         return Planned(self.modifiers(step, np), last.anchor, last.between, last.vertical)
 
     def anchor(self, np: NounPhrase) -> int | None:
+        contradicted = len(self.contradicted)
         planned = self.plan(np, singular=False, role="anchor")
         if planned is None:
             return None
         if self.b.size(planned.step) == 0:
             self.b.note(f"anchor {np.text!r}: nothing fits")
-            if self.contradicted:
+            if len(self.contradicted) > contradicted:
                 # the scene holds the anchor's kind but contradicts its description ("the
                 # bed next to the blue nightstand" where the nightstand is brown): nothing
                 # is related to it, rather than dropping what was said

@@ -44,6 +44,7 @@ from pathlib import Path
 
 import numpy as np
 
+from causalsplat.colors import rgb_to_hex
 from causalsplat.errors import CausalSplatError
 from causalsplat.serve.app import App, HttpError, Request, Response
 from graph_store import SceneGraph
@@ -134,7 +135,7 @@ def entity_palette(entity_ids: Iterable[int]) -> dict[int, str]:
         sat = (0.63, 0.74, 0.52)[i % 3]
         val = (0.95, 0.9, 0.82)[(i // 3) % 3]
         r, g, b = colorsys.hsv_to_rgb(hue, sat, val)
-        out[i] = f"#{round(r * 255):02x}{round(g * 255):02x}{round(b * 255):02x}"
+        out[i] = rgb_to_hex((r, g, b))
     return out
 
 
