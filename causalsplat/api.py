@@ -133,10 +133,9 @@ class Store:
         if_exists: IfExists = "fail",
     ) -> Scene:
         """Store the scene graph of an objects file (DESIGN §9) and return its handle."""
-        from causalsplat.objects import objects_to_scene_graph, read_objects
+        from causalsplat.objects import objects_graph
 
-        graph = objects_to_scene_graph(read_objects(path), scene_id=scene_id)
-        return self.save_scene(graph, if_exists=if_exists)
+        return self.save_scene(objects_graph(path, scene_id=scene_id), if_exists=if_exists)
 
     def build(
         self,

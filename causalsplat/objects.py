@@ -128,6 +128,14 @@ def parse_objects(document: Any, *, source: str = "<objects>", sha256: str = "")
     return ObjectsFile(scene_id, units, up, objects, sha256, source)
 
 
+def objects_graph(
+    path: str | Path, *, scene_id: str | None = None, config: EdgeConfig | None = None
+) -> SceneGraph:
+    """The scene graph of an objects file: :func:`read_objects`, then
+    :func:`objects_to_scene_graph` (every problem an :class:`InputFormatError`)."""
+    return objects_to_scene_graph(read_objects(path), scene_id=scene_id, config=config)
+
+
 def objects_to_scene_graph(
     objects: ObjectsFile,
     *,

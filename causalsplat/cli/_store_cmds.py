@@ -36,9 +36,12 @@ def ingest_objects(
     file: Path, scene_id: str | None, if_exists: str, db_url: str, as_json: bool
 ) -> None:
     """Store a scene graph built from already segmented objects (objects JSON, DESIGN §9)."""
+    from causalsplat.objects import objects_graph
+
+    # a bad file is refused before the store is opened: no store file is created for it
+    graph = objects_graph(file, scene_id=scene_id)
     with _open(db_url) as store:
-        scene = store.ingest_objects(file, scene_id=scene_id, if_exists=if_exists)
-        graph = scene.graph
+        graph = store.save_scene(graph, if_exists=if_exists).graph
     counts: dict[str, int] = {}
     for r in graph.relations:
         counts[r.type.value] = counts.get(r.type.value, 0) + 1

@@ -179,3 +179,16 @@ def test_rgb_is_stored_with_the_nearest_colour_term() -> None:
     assert first == {("rgb", "#e6e4de", "input"), ("color", "white", "geometry")}
     # a colour name the file gives stands; the measured colour is kept beside it
     assert second == {("rgb", "#785032", "input"), ("color", "walnut", "input")}
+
+
+def test_a_bad_file_creates_no_store(tmp_path: Path) -> None:
+    from click.testing import CliRunner
+
+    from causalsplat.cli import cli
+
+    path = write(tmp_path, one(rgb=[1, 2, 300]))
+    db = tmp_path / "new.db"
+    result = CliRunner().invoke(cli, ["ingest-objects", str(path), "--scene", "s",
+                                      "--db", f"sqlite:///{db}"])  # fmt: skip
+    assert result.exit_code == 1 and "rgb: each channel must be in [0, 255]" in result.output
+    assert "Traceback" not in result.output and not db.exists()
