@@ -193,6 +193,9 @@ class Lexicon:
     def verb_lemmas(self, synset: int) -> tuple[str, ...]:
         return self._verb(synset)[0]
 
+    def verb_hypernyms(self, synset: int) -> tuple[int, ...]:
+        return self._verb(synset)[1]
+
     def related_words(self, word: str, *, senses: int = 3) -> dict[str, float]:
         """Words related to ``word`` with a strength in ``(0, 1]``: itself 1.0; verb or noun
         synonyms (first ``senses`` senses) 0.8; derivationally related nouns/verbs (``dine``

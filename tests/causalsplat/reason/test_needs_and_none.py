@@ -70,12 +70,12 @@ def test_how_can_i_what_can_i_use_and_is_there_anything(
 @pytest.mark.parametrize(
     "text",
     ["it's too dark in here", "I want to watch a movie", "where can I take a shower?",
-     "I need to brush my teeth", "I need warm air to dry my hair"],
+     "I need to brush my teeth", "I need warm air to dry my hair", "I want to lie down"],
 )  # fmt: skip
 def test_nothing_fits_when_the_room_lacks_what_is_needed(
     demo_room: SceneContext, reasoner: OfflineReasoner, text: str
 ) -> None:
-    # the demo room has no lamp, screen, shower, toothbrush or hair dryer
+    # the demo room has no lamp, screen, shower, toothbrush, hair dryer, bed or couch
     answer = reasoner.answer(text, demo_room)
     assert answer.entity_ids == () and answer.nothing_fits
     assert answer.candidates  # the closest candidates come with it

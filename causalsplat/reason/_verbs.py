@@ -1,0 +1,133 @@
+"""What a need asks an object to do: its verbs, matched to what the knowledge table says
+objects afford.
+
+A sentence embedding weighs every word of a need alike, so the nouns it merely mentions
+pull it towards the objects they name: "I want to cook pasta" scores a plate (you eat
+pasta from one) above the stove, and "something to put my coffee on" a cup above a
+tray. What the need asks of the object is its verb: something to *cook* with, somewhere
+to *put* a thing *on*. :func:`need_verbs` finds the verbs of a need's words (WordNet:
+a word with verb senses at least as many as its noun senses, or a gerund) and
+:func:`verb_fit` how well a category's facts afford one of them: its ``affords`` and
+``for`` phrases open with the verb, a WordNet synonym of it or a verb it is a kind of
+("chop" is a kind of "cut"), with the need's particle ("put ... on") when it has one. The
+need's other words (its objects) count only with the verb: a pot affords cooking and
+holds pasta.
+
+>>> from causalsplat.reason.lexicon import load_lexicon
+>>> from causalsplat.reason.knowledge import load_knowledge
+>>> lex, table = load_lexicon(), load_knowledge()
+>>> need = need_verbs(("i", "want", "to", "cook", "pasta"), lex)
+>>> need.verbs, need.objects
+(('cook',), ('pasta',))
+>>> [round(verb_fit(need, table.get(c), lex), 2) for c in ("pot", "stove", "plate")]
+[1.0, 0.75, 0.0]
+>>> on = need_verbs(("something", "to", "put", "my", "coffee", "on"), lex)
+>>> [round(verb_fit(on, table.get(c), lex), 2) for c in ("tray", "cup")]
+[0.75, 0.0]
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from causalsplat.reason._grammar import ACTION_STOPWORDS, DETERMINERS, PARTICLES
+from causalsplat.reason.knowledge import ObjectFacts
+from causalsplat.reason.lexicon import Lexicon
+
+#: Verbs too general to tell one object's use from another's ("make the bed", "have a
+#: look", "need watering"): they neither make a need's verb nor match one.
+LIGHT_VERBS = frozenset({
+    "be", "have", "make", "do", "get", "take", "give", "go", "come", "use", "let", "keep",
+    "need", "want", "like", "try", "start", "stop", "help", "feel", "look", "seem", "see",
+    "say", "tell", "know", "think", "find", "move", "change", "turn", "hold", "bring",
+})  # fmt: skip
+#: Words after which a word is a noun ("the baby", "my hands").
+NOUN_MARKERS = DETERMINERS
+#: Words after which a participle says how someone is, not what they want to do ("I am
+#: tired", "I feel so bored").
+STATE_MARKERS = frozenset({"am", "is", "are", "was", "were", "be", "been", "'m", "'re", "'s",
+                           "feel", "feeling", "so", "too", "very", "really"})  # fmt: skip
+#: A synonym of the need's verb counts this much, a verb the one is a kind of this much.
+SYNONYM = 0.8
+KIND_OF = 0.5
+#: What the particle ("on" of "put ... on") leaves of a match when the phrase has another.
+OTHER_PARTICLE = 0.5
+#: The share of a match that the need's objects decide: a category that affords the verb
+#: scores ``1 - OBJECT_SHARE`` of it, one that also holds or names what it acts on, all.
+OBJECT_SHARE = 0.25
+
+
+@dataclass(frozen=True, slots=True)
+class NeedVerbs:
+    """A need's verbs (base forms), its trailing particle and the nouns it acts on."""
+
+    verbs: tuple[str, ...]
+    particle: str | None
+    objects: tuple[str, ...]
+
+
+def need_verbs(tokens: tuple[str, ...], lexicon: Lexicon) -> NeedVerbs:
+    """The verb, particle and objects of a need's purpose clause (its tokens, states
+    already read as what they call for): the first word with a verb sense that is not
+    light, not a stop word, not after a determiner ("the baby play": "baby" is a noun
+    there) nor after a form of "be" ("I am tired" states how one is); the nouns after it
+    are what it acts on; a trailing particle is kept."""
+    verb: str | None = None
+    objects: list[str] = []
+    words = [t for t in tokens if t.isalpha() or "'" in t]
+    prev = ""
+    for w in words:
+        if verb is None:
+            if w not in ACTION_STOPWORDS and prev not in NOUN_MARKERS | STATE_MARKERS:
+                base = lexicon.lemma(w, "v")
+                if base not in LIGHT_VERBS and lexicon.verb_senses(base):
+                    verb = base
+        elif w not in ACTION_STOPWORDS and w not in PARTICLES:
+            objects.append(lexicon.lemma(w, "n"))
+        prev = w
+    particle = words[-1] if words and words[-1] in PARTICLES else None
+    return NeedVerbs(() if verb is None else (verb,), particle, tuple(dict.fromkeys(objects)))
+
+
+def _relatedness(a: str, b: str, lexicon: Lexicon) -> float:
+    """1 for one verb, :data:`SYNONYM` for verbs sharing one of their first two senses,
+    :data:`KIND_OF` when one's first two senses have the other as a direct hypernym."""
+    if a == b:
+        return 1.0
+    if a in LIGHT_VERBS or b in LIGHT_VERBS:
+        return 0.0
+    best = 0.0
+    for x, y in ((a, b), (b, a)):
+        for k, s in enumerate(lexicon.verb_senses(x)[:2]):
+            if y in lexicon.verb_lemmas(s):
+                return SYNONYM
+            if k == 0 and any(y in lexicon.verb_lemmas(h) for h in lexicon.verb_hypernyms(s)):
+                best = KIND_OF
+    return best
+
+
+def verb_fit(need: NeedVerbs, facts: ObjectFacts | None, lexicon: Lexicon) -> float:
+    """How well a category's facts afford the need's verbs, in ``[0, 1]`` (module
+    docstring); 0 without facts or verbs."""
+    if facts is None or not need.verbs:
+        return 0.0
+    best = 0.0
+    phrases = [p.split() for p in (*facts.affords, *facts.uses) if p]
+    for words in phrases:
+        head = lexicon.lemma(words[0], "v")
+        rel = max(_relatedness(v, head, lexicon) for v in need.verbs)
+        if rel <= 0.0:
+            continue
+        if need.particle is not None:
+            tail = [w for w in words[1:] if w in PARTICLES]
+            if tail and need.particle not in tail:
+                rel *= OTHER_PARTICLE
+        best = max(best, rel)
+    if best <= 0.0:
+        return 0.0
+    if not need.objects:
+        return best
+    named = {lexicon.lemma(w, "n") for p in (*facts.holds, *facts.uses, *facts.affords)
+             for w in p.split()}  # fmt: skip
+    acts_on = any(o in named for o in need.objects)
+    return best * ((1.0 - OBJECT_SHARE) + (OBJECT_SHARE if acts_on else 0.0))

@@ -1,0 +1,104 @@
+"""What a need asks an object to do: its verb, read from the sentence and matched to what
+the knowledge table says objects afford (``reason/_verbs.py``), and the rule that holds a
+room's answer to it when what would meet the need best does what it asks."""
+
+from __future__ import annotations
+
+import pytest
+
+from causalsplat.objects import objects_to_scene_graph, parse_objects
+from causalsplat.reason import SceneContext
+from causalsplat.reason._verbs import LIGHT_VERBS, NeedVerbs, need_verbs, verb_fit
+from causalsplat.reason.knowledge import load_knowledge
+from causalsplat.reason.lexicon import load_lexicon
+from causalsplat.reason.offline import OfflineReasoner
+
+LEX = load_lexicon()
+TABLE = load_knowledge()
+
+
+def _need(text: str) -> NeedVerbs:
+    return need_verbs(tuple(text.split()), LEX)
+
+
+def _verbs(text: str) -> tuple[tuple[str, ...], str | None, tuple[str, ...]]:
+    need = need_verbs(tuple(text.split()), LEX)
+    return need.verbs, need.particle, need.objects
+
+
+@pytest.mark.parametrize(
+    ("text", "verb", "particle", "objects"),
+    [
+        ("where can i store my dishes", ("store",), None, ("dish",)),
+        ("something to put my coffee on", ("put",), "on", ("coffee",)),
+        ("where can the baby play", ("play",), None, ()),  # "baby" after "the" is a noun
+        ("which thing needs watering", ("water",), None, ()),  # "need" is too general
+        ("how can i wash my hands", ("wash",), None, ("hand",)),
+        ("i want to lie down", ("lie",), None, ()),
+        ("i am tired", (), None, ()),
+    ],
+)
+def test_the_verb_of_a_need(
+    text: str, verb: tuple[str, ...], particle: str | None, objects: tuple[str, ...]
+) -> None:
+    assert _verbs(text) == (verb, particle, objects)
+
+
+def test_light_verbs_never_make_a_need_verb() -> None:
+    for verb in ("have", "make", "get", "use", "need"):
+        assert verb in LIGHT_VERBS
+        assert _verbs(f"i want to {verb} something")[0] == ()
+
+
+@pytest.mark.parametrize(
+    ("text", "fits", "does_not"),
+    [
+        ("i want to lie down", ["couch", "bed"], ["stool", "chair", "table"]),
+        ("how can i wash my hands", ["sink"], ["towel", "stool"]),
+        ("i want to cook pasta", ["pot", "stove"], ["plate", "bowl"]),
+        ("something to put my coffee on", ["table", "tray"], ["cup", "refrigerator"]),
+        ("how can i cool the room", ["fan", "window"], ["refrigerator", "towel"]),
+    ],
+)
+def test_what_affords_the_verb(text: str, fits: list[str], does_not: list[str]) -> None:
+    need = _need(text)
+    for category in fits:
+        assert verb_fit(need, TABLE.get(category), LEX) >= 0.75, category
+    for category in does_not:
+        assert verb_fit(need, TABLE.get(category), LEX) == 0.0, category
+
+
+def test_the_objects_and_the_particle_decide_between_those_that_afford_it() -> None:
+    # a cabinet is for storing dishes, a fridge for storing food: both store
+    need = _need("where can i store my dishes")
+    assert verb_fit(need, TABLE.get("cabinet"), LEX) > verb_fit(need, TABLE.get("fridge"), LEX) > 0
+    # "put ... in" is not what a table affords as well as "put ... on"
+    on = _need("somewhere to put my cup on")
+    into = _need("somewhere to put my cup in")
+    assert verb_fit(on, TABLE.get("table"), LEX) > verb_fit(into, TABLE.get("table"), LEX) > 0
+    assert verb_fit(on, None, LEX) == 0.0
+
+
+def _room(*categories: str) -> SceneContext:
+    objects = [
+        {"id": i, "label": c, "center": [float(i), 0.0, 0.4], "size": [0.5, 0.5, 0.8]}
+        for i, c in enumerate(categories)
+    ]
+    document = {"scene_id": "r", "objects": objects}
+    return SceneContext(objects_to_scene_graph(parse_objects(document)))
+
+
+@pytest.fixture(scope="module")
+def reasoner() -> OfflineReasoner:
+    return OfflineReasoner(embeddings=True)
+
+
+def test_nothing_to_lie_on_is_nothing_fits(reasoner: OfflineReasoner) -> None:
+    # stools and chairs come close by meaning (seats), but lying down is what couches and
+    # beds afford: the best anywhere does what is asked and nothing here does
+    seats = _room("stool", "stool", "chair", "table", "plant", "book")
+    answer = reasoner.answer("I want to lie down", seats)
+    assert answer.entity_ids == () and answer.nothing_fits, answer.explanation
+    with_couch = _room("stool", "chair", "couch", "table", "plant", "book")
+    answer = reasoner.answer("I want to lie down", with_couch)
+    assert set(answer.categories) == {"couch"}, answer.explanation
