@@ -55,7 +55,7 @@ from causalsplat.instances import (
     InstanceAssignment,
     InstanceQuality,
     assign_instances,
-    instance_quality,
+    scene_quality,
 )
 from graph_store import SceneGraph, SceneMeta
 
@@ -260,7 +260,7 @@ def _build(
         graph = _graph(folder, evidence, assignment, config, scene_id, hashes, labeler)
     quality = None
     if folder.gt_labels is not None:
-        quality = instance_quality(assignment.labels, folder.gt_labels)
+        quality = scene_quality(assignment.labels, folder.gt_labels)
     warnings = []
     if folder.distorted:
         warnings.append(

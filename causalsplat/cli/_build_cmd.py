@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 from pathlib import Path
-from typing import TYPE_CHECKING, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import click
 
@@ -134,6 +134,19 @@ def config_from_options(
     return config
 
 
+def panoptic_line(q: dict[str, Any]) -> str:
+    """The panoptic figures of a build's quality document, in one phrase."""
+
+    def num(x: float | None) -> str:
+        return "n/a" if x is None else f"{x:.3f}"
+
+    return (
+        f"PQ {num(q['pq'])} (SQ {num(q['sq'])}, RQ {num(q['rq'])}) over GT objects of "
+        f">= {q['panoptic_min_size']} Gaussians: {q['split']} split, {q['merged']} merged, "
+        f"{q['missed']} missed, {q['extra']} extra"
+    )
+
+
 @cli.command("build")
 @click.argument("scene_dir", type=click.Path(file_okay=False, path_type=Path))
 @click.option(
@@ -216,5 +229,5 @@ def build(
     if q is not None:
         click.echo(
             f"  instance quality vs gt/gt_labels.npy: mean best IoU {q['mean_best_iou']:.3f}, "
-            f"AP50 {q['ap50']:.3f} over {q['n_gt']} GT instances"
+            f"AP50 {q['ap50']:.3f} over {q['n_gt']} GT instances; {panoptic_line(q)}"
         )

@@ -107,7 +107,8 @@ def _print(doc: dict[str, Any]) -> None:
     click.echo(
         f"   {b['entities']} entities, {b['relations']} relations from {b['gaussians']:,} "
         f"Gaussians, {b['views']} views, {b['masks']} masks; instance quality against the "
-        f"generated GT: mean best IoU {q['mean_best_iou']:.3f}, AP50 {q['ap50']:.3f}"
+        f"generated GT: mean best IoU {q['mean_best_iou']:.3f}, AP50 {q['ap50']:.3f}, "
+        f"PQ {q['pq']:.3f} ({q['split']} split, {q['merged']} merged objects)"
     )
     click.echo("3. exported: " + ", ".join(f"{k} {v}" for k, v in doc["files"].items()))
     click.echo("4. asking the offline reasoner one question of each level:")

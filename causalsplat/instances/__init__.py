@@ -7,7 +7,7 @@ truth (mean best-match IoU, AP25/AP50). numpy / scipy (numba where it imports); 
 
 from causalsplat.instances.assign import InstanceAssignment, assign_instances, cluster_masks
 from causalsplat.instances.config import InstanceConfig, InstanceConfigError
-from causalsplat.instances.quality import InstanceQuality, instance_quality
+from causalsplat.instances.quality import InstanceQuality, instance_quality, scene_quality
 
 __all__ = [
     "InstanceAssignment",
@@ -17,4 +17,5 @@ __all__ = [
     "assign_instances",
     "cluster_masks",
     "instance_quality",
+    "scene_quality",
 ]

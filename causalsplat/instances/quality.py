@@ -22,6 +22,15 @@ A match is a true positive, anything else a false positive. AP is the area under
 precision-recall curve with all-points interpolation: precision made non-increasing from
 the right, summed over the recall steps (each true positive raises recall by ``1 / n_gt``).
 
+Panoptic quality (Kirillov et al., 2019), class-agnostic: a ground-truth and a predicted
+instance *match* when their IoU exceeds 0.5 (such a match is unique on both sides);
+``SQ`` is the mean IoU of the matches, ``RQ = TP / (TP + FP / 2 + FN / 2)`` and
+``PQ = SQ * RQ``, where TP counts matches, FP unmatched predicted instances (*extra*) and
+FN unmatched ground-truth ones (*missed*). How objects fall apart is counted beside it: a
+ground-truth instance is *split* when two or more predicted instances each hold at least
+:data:`PART` of it, and a predicted instance *merged* when it holds at least
+:data:`PART` of each of two or more ground-truth instances.
+
 All pairwise intersections come from one sparse contingency matrix, so a million elements
 and a thousand instances take a fraction of a second.
 """
@@ -30,7 +39,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from numbers import Real
 from typing import Any
 
@@ -38,7 +47,15 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import ArrayLike
 
-__all__ = ["InstanceQuality", "instance_quality"]
+__all__ = ["PANOPTIC_MIN_SIZE", "PART", "InstanceQuality", "instance_quality", "scene_quality"]
+
+#: The share of a ground-truth instance a predicted one must hold to count as a part of it
+#: (for ``split`` and ``merged``).
+PART = 0.2
+#: Ground-truth instances of fewer Gaussians than this are left out of a built scene's
+#: panoptic figures (:func:`scene_quality`): a few stray Gaussians are no object anyone
+#: asks about.
+PANOPTIC_MIN_SIZE = 50
 
 
 @dataclass(frozen=True, slots=True)
@@ -59,6 +76,22 @@ class InstanceQuality:
     """Per evaluated GT id, its best IoU (0.0 when no prediction overlaps it)."""
     matched: dict[int, int]
     """GT id -> the predicted id giving its best IoU (only where that IoU > 0)."""
+    pq: float = math.nan
+    """Panoptic quality ``SQ * RQ`` (module docstring); nan if no GT and no prediction."""
+    sq: float = math.nan
+    """Mean IoU of the matches (IoU > 0.5); nan without a match."""
+    rq: float = math.nan
+    """``TP / (TP + FP / 2 + FN / 2)``; nan if no GT and no prediction."""
+    split: int = 0
+    """GT instances two or more predicted instances each hold at least :data:`PART` of."""
+    merged: int = 0
+    """Predicted instances holding at least :data:`PART` of each of two or more GT ones."""
+    missed: int = 0
+    """GT instances without a match (FN)."""
+    extra: int = 0
+    """Predicted instances without a match (FP)."""
+    panoptic_min_size: float = 1
+    """The ``min_size`` of the ground-truth instances the panoptic figures count."""
 
     def to_json(self) -> dict[str, Any]:
         """A JSON-ready dict: string keys for the per-instance maps, nan as ``None``."""
@@ -72,6 +105,14 @@ class InstanceQuality:
             "mean_best_iou": num(self.mean_best_iou),
             "ap50": num(self.ap50),
             "ap25": num(self.ap25),
+            "pq": num(self.pq),
+            "sq": num(self.sq),
+            "rq": num(self.rq),
+            "split": self.split,
+            "merged": self.merged,
+            "missed": self.missed,
+            "extra": self.extra,
+            "panoptic_min_size": self.panoptic_min_size,
             "best_iou": {str(g): num(v) for g, v in self.best_iou.items()},
             "matched": {str(g): p for g, p in self.matched.items()},
         }
@@ -251,6 +292,19 @@ def instance_quality(
                     break
         return _average_precision(tp, n_gt)
 
+    # panoptic quality: matches at IoU > 0.5 are one-to-one
+    hit = iou > 0.5
+    tp = int(hit.sum())
+    fn, fp = n_gt - tp, n_pred - tp
+    denom = tp + 0.5 * fp + 0.5 * fn
+    sq = math.fsum(iou[hit].tolist()) / tp if tp else math.nan
+    rq = tp / denom if denom else math.nan
+    pq = (0.0 if not tp else sq * rq) if denom else math.nan
+    part = inter >= PART * g_size[rows]
+    split = int(np.count_nonzero(np.bincount(rows[part], minlength=n_g) >= 2))
+    pairs = np.unique(np.stack([cols[part], rows[part]]), axis=1) if part.any() else None
+    merged = 0 if pairs is None else int(np.count_nonzero(np.bincount(pairs[0]) >= 2))
+
     return InstanceQuality(
         n_gt=n_gt,
         n_pred=n_pred,
@@ -259,4 +313,31 @@ def instance_quality(
         ap25=float(ap_at(0.25)),
         best_iou=best_iou,
         matched=matched,
+        pq=float(pq),
+        sq=float(sq),
+        rq=float(rq),
+        split=split,
+        merged=merged,
+        missed=fn,
+        extra=fp,
+        panoptic_min_size=min_size,
     )
+
+
+def scene_quality(
+    pred: ArrayLike, gt: ArrayLike, *, panoptic_min_size: int = PANOPTIC_MIN_SIZE
+) -> InstanceQuality:
+    """A built scene's quality against its GT instances, as ``build`` reports it: mean best
+    IoU and AP over every GT instance, the panoptic figures (PQ, SQ, RQ, split, merged,
+    missed, extra) over those of at least ``panoptic_min_size`` elements.
+
+    >>> import numpy as np
+    >>> gt = np.repeat([0, 1, 2], [100, 100, 3])
+    >>> q = scene_quality(np.repeat([0, 1, 2], [100, 100, 3]), gt)
+    >>> q.n_gt, q.pq, q.missed
+    (3, 1.0, 0)
+    """
+    q = instance_quality(pred, gt)
+    p = instance_quality(pred, gt, min_size=panoptic_min_size)
+    return replace(q, pq=p.pq, sq=p.sq, rq=p.rq, split=p.split, merged=p.merged,
+                   missed=p.missed, extra=p.extra, panoptic_min_size=panoptic_min_size)  # fmt: skip

@@ -21,13 +21,17 @@ def test_build_json_report_then_query_the_stored_scene(tiny_folder: Path, tmp_pa
     assert doc["scene_id"] == "synth-tiny-0" and doc["views"] == 12 and doc["entities"] >= 3
     assert [s["name"] for s in doc["stages"]] == ["load", "rasterize", "field", "instances",
                                                    "graph"]  # fmt: skip
-    assert doc["peak_rss_mib"] > 0 and doc["quality"]["n_gt"] > 0
+    q = doc["quality"]
+    assert doc["peak_rss_mib"] > 0 and q["n_gt"] > 0
+    # panoptic figures beside mean best IoU, over GT objects of >= 50 Gaussians
+    assert 0.0 <= q["pq"] <= q["rq"] <= 1.0 and q["panoptic_min_size"] == 50
+    assert q["missed"] + q["extra"] >= 0 and q["split"] >= 0 and q["merged"] >= 0
     scenes = json.loads(run("scenes", "--json", db=db).stdout)
     assert [s["scene_id"] for s in scenes] == ["synth-tiny-0"] and scenes[0]["source"] == "build"
     # a second build of the same id fails and leaves the stored scene alone
     assert_one_line_error(run(*args, db=db, check=False), "already stored")
     text = run(*args, "--if-exists", "replace", db=db).stdout
-    assert "(cached)" in text and "instance quality" in text
+    assert "(cached)" in text and "instance quality" in text and "PQ " in text
     ask = json.loads(run("ask", "where can I wash my hands?", "--scene", "synth-tiny-0", "--json",
                          db=db).stdout)  # fmt: skip
     # 40 training steps may leave a fragment of the sink as a second entity

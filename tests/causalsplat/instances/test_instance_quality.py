@@ -222,6 +222,15 @@ def test_to_json() -> None:
         "mean_best_iou": 0.5,
         "ap50": 1.0,
         "ap25": 1.0,
+        # two halves: IoU 0.5 is no match (it must exceed 0.5), and the object is split
+        "pq": 0.0,
+        "sq": None,
+        "rq": 0.0,
+        "split": 1,
+        "merged": 0,
+        "missed": 1,
+        "extra": 2,
+        "panoptic_min_size": 1,
         "best_iou": {"4": 0.5},
         "matched": {"4": 0},
     }
@@ -317,6 +326,76 @@ def test_against_reference(seed: int) -> None:
     assert (q.n_gt, q.n_pred) == (n_gt, n_pred)
     for got, want in ((q.mean_best_iou, mean_best), (q.ap50, ap50), (q.ap25, ap25)):
         assert (math.isnan(got) and math.isnan(want)) or close(got, want), (got, want)
+
+
+def panoptic_reference(
+    pred: list[int], gt: list[int], min_size: int, ignore: set[int]
+) -> tuple[float, float, float, int, int, int, int]:
+    """(PQ, SQ, RQ, split, merged, missed, extra) with plain Python sets."""
+    gt_sets: dict[int, set[int]] = {}
+    pred_sets: dict[int, set[int]] = {}
+    for i, (p, g) in enumerate(zip(pred, gt)):
+        if g >= 0:
+            gt_sets.setdefault(g, set()).add(i)
+        if p >= 0:
+            pred_sets.setdefault(p, set()).add(i)
+    left_out = {g for g, s in gt_sets.items() if len(s) < min_size or g in ignore}
+    left_out_elems = set().union(*(gt_sets[g] for g in left_out))
+    gts = {g: s for g, s in gt_sets.items() if g not in left_out}
+    preds = {p: s for p, s in pred_sets.items() if not len(s & left_out_elems) > len(s) / 2}
+    matches = [
+        len(gs & ps) / len(gs | ps)
+        for gs in gts.values()
+        for ps in preds.values()
+        if len(gs & ps) / len(gs | ps) > 0.5
+    ]
+    tp, fn, fp = len(matches), len(gts) - len(matches), len(preds) - len(matches)
+    denom = tp + fp / 2 + fn / 2
+    sq = sum(matches) / tp if tp else math.nan
+    rq = tp / denom if denom else math.nan
+    pq = (sq * rq if tp else 0.0) if denom else math.nan
+    split = sum(
+        1 for gs in gts.values() if sum(len(gs & ps) >= 0.2 * len(gs) for ps in preds.values()) >= 2
+    )
+    merged = sum(
+        1
+        for ps in preds.values()
+        if sum(len(gs & ps) >= 0.2 * len(gs) > 0 for gs in gts.values()) >= 2
+    )
+    return pq, sq, rq, split, merged, fn, fp
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_panoptic_quality_against_reference(seed: int) -> None:
+    rng = np.random.default_rng(1000 + seed)
+    n = int(rng.integers(0, 80))
+    gt = rng.integers(-1, int(rng.integers(1, 7)), size=n)
+    if seed % 2:
+        pred = rng.integers(-1, int(rng.integers(1, 9)), size=n)
+    else:
+        # a relabelled copy with some objects cut in two and others joined
+        pred = np.where(gt >= 0, (gt * 7) % 5, -1)
+        cut = rng.random(n) < 0.25
+        pred[cut] = pred[cut] + 10
+    min_size = int(rng.integers(0, 4))
+    ignore = {0} if seed % 3 == 0 else set()
+    q = instance_quality(pred, gt, min_size=min_size, ignore=ignore)
+    want = panoptic_reference(pred.tolist(), gt.tolist(), min_size, ignore)
+    got = (q.pq, q.sq, q.rq, q.split, q.merged, q.missed, q.extra)
+    for a, b in zip(got, want, strict=True):
+        assert (math.isnan(a) and math.isnan(b)) or close(a, b), (got, want)
+
+
+def test_panoptic_counts_a_split_and_a_merge() -> None:
+    gt = np.array([0] * 10 + [1] * 10 + [2] * 10)
+    split = instance_quality(np.array([0] * 5 + [1] * 5 + [2] * 10 + [3] * 10), gt)
+    assert (split.split, split.merged, split.missed, split.extra) == (1, 0, 1, 2)
+    assert close(split.rq, 2 / 3.5) and split.sq == 1.0 and close(split.pq, 2 / 3.5)
+    merged = instance_quality(np.array([0] * 20 + [1] * 10), gt)
+    assert (merged.split, merged.merged, merged.missed, merged.extra) == (0, 1, 2, 1)
+    assert close(merged.pq, 1 / 2.5)
+    exact = instance_quality(gt, gt)
+    assert (exact.pq, exact.sq, exact.rq, exact.split, exact.merged) == (1.0, 1.0, 1.0, 0, 0)
 
 
 def test_large_identical() -> None:
