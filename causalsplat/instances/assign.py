@@ -5,7 +5,10 @@
    distance between unit vectors, a monotone function of the cosine); noise masks get -1.
    When HDBSCAN finds no cluster at all (for instance when every mask feature is the
    same, one object seen many times) it is run again allowing a single cluster.
-2. Each cluster ``k`` has the centre ``C_k = Norm(mean of its mask features)``.
+2. Each cluster ``k`` has the centre ``C_k = Norm(mean of its mask features)``. Clusters
+   whose masks draw the same Gaussians from different views and whose centres agree are
+   merged (multi-view consensus, :mod:`causalsplat.instances.consensus`), and the
+   centres taken again.
 3. Each supervised Gaussian takes ``argmax_k f·C_k`` (``assignment="feature"``, the
    method's rule) or, by default (``assignment="vote"``), the cluster its views vote for:
    every view in which the Gaussian is drawn inside clustered masks casts one vote, split
@@ -38,6 +41,7 @@ import scipy.sparse as sp
 from causalsplat.field.types import FeatureField, MaskEvidence
 from causalsplat.field.weights import normalize_rows
 from causalsplat.instances.config import InstanceConfig
+from causalsplat.instances.consensus import merged_clusters
 from causalsplat.instances.propagate import harmonic_labels, surface_graph
 
 
@@ -114,11 +118,17 @@ def assign_instances(
     index_of[order] = np.arange(len(order))
     cluster = index_of[raw]  # raw -1 reads the last slot, -1
     feats = evidence.features.astype(np.float64)
-    centers = normalize_rows(
-        np.array([feats[cluster == c].mean(axis=0) for c in range(len(order))]).reshape(
-            -1, field.dim
-        )
-    )
+    centers = _centers(feats, cluster, len(order), field.dim)
+    if config.merge_overlap < 1 and len(order) > 1:
+        # clusters whose masks draw the same Gaussians, with features alike, are one
+        # object seen from two sides (consensus.py)
+        votes, _ = _vote_scores(evidence, cluster, centers, field.features, 0.0)
+        alike = centers.astype(np.float64) @ centers.T.astype(np.float64) >= config.merge_cosine
+        cluster = merged_clusters(cluster, votes, config.merge_overlap, alike)
+        n = int(cluster.max()) + 1 if (cluster >= 0).any() else 0
+        if n < len(order):
+            order = list(range(n))
+            centers = _centers(feats, cluster, n, field.dim)
     if config.assignment == "feature":
         rows = np.flatnonzero(field.supervised)
         scores = field.features[rows].astype(np.float64) @ centers.T
@@ -139,6 +149,13 @@ def assign_instances(
         score=np.where((labels >= 0) & (labels == voted), score, 0.0).astype(np.float32),
         n_clusters=n_clusters,
         n_noise_masks=int((raw < 0).sum()),
+    )
+
+
+def _centers(feats: np.ndarray, cluster: np.ndarray, k: int, dim: int) -> np.ndarray:
+    """(k, dim) unit centres: the normalised mean feature of each cluster's masks."""
+    return normalize_rows(
+        np.array([feats[cluster == c].mean(axis=0) for c in range(k)]).reshape(-1, dim)
     )
 
 

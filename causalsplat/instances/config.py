@@ -56,6 +56,17 @@ class InstanceConfig:
         propagate_neighbors: neighbours per Gaussian in the surface graph.
         propagate_coplanar: weigh the graph's edges by how well the two Gaussians lie in
             one plane (flat Gaussians only); ``False`` uses distance alone.
+        merge_overlap: multi-view consensus (:mod:`causalsplat.instances.consensus`):
+            two clusters are one object when at least this share of the smaller one's
+            votes falls on Gaussians the other claims as much, and their centres agree
+            to ``merge_cosine``; 1 turns merging off. Set on the dev scenes (synthetic
+            small seeds 0-4, scene0000_00 from exact and from noisy masks): 0.4 / 0.4
+            raised their mean panoptic quality from 0.736 to 0.783; overlap alone
+            merged neighbours (0.5: PQ 0.43 on scene0000_00), since a small object's
+            Gaussians are drawn inside its support's masks too.
+        merge_cosine: the cosine of the two clusters' centres merging needs (clusters of
+            different objects that overlap stay below 0.25 on scene0000_00, those of one
+            object seen from two sides reach 0.48-0.70).
     """
 
     min_cluster_size: int = 3
@@ -71,6 +82,8 @@ class InstanceConfig:
     propagate_sigmas: float = 3.0
     propagate_neighbors: int = 16
     propagate_coplanar: bool = True
+    merge_overlap: float = 0.4
+    merge_cosine: float = 0.4
 
     def __post_init__(self) -> None:
         allowed = dict(_ALLOWED)
@@ -102,4 +115,6 @@ _ALLOWED: dict[str, Allowed] = {
     "min_evidence": Interval(0),
     "propagate_sigmas": Interval(0),
     "propagate_neighbors": Interval(1, integer=True),
+    "merge_overlap": Interval(0, 1),
+    "merge_cosine": Interval(-1, 1),
 }
