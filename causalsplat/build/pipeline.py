@@ -49,6 +49,7 @@ from causalsplat.field import (
 )
 from causalsplat.field.blas import single_threaded_blas
 from causalsplat.graph import build_relations
+from causalsplat.graph.contact import Surfaces
 from causalsplat.graph.labeling import Labeler, label_entities
 from causalsplat.graph.nodes import UNLABELLED, build_entities, build_provenance
 from causalsplat.instances import (
@@ -403,7 +404,8 @@ def _graph(
     if labeler is not None:
         entities = label_entities(entities, assignment, evidence, folder.masks,
                                   lambda v: view_image(folder, v), labeler)  # fmt: skip
-    relations = build_relations(entities, config.edges, up_axis=config.up_axis)
+    relations = build_relations(entities, config.edges, up_axis=config.up_axis,
+                                surfaces=_surfaces(folder, assignment, config))  # fmt: skip
     views, masks = build_provenance(
         folder.cameras, folder.masks, evidence, assignment, {e.id for e in entities}
     )
@@ -417,6 +419,26 @@ def _graph(
     )
     return SceneGraph(meta=meta, entities=entities, relations=relations, views=views,
                       masks=masks)  # fmt: skip
+
+
+def _surfaces(
+    folder: SceneFolder, assignment: InstanceAssignment, config: BuildConfig
+) -> Surfaces | None:
+    """Each entity's Gaussian centres and the contact radius of the support rule
+    (``EdgeConfig.contact_scales`` median Gaussian sizes); ``None`` when turned off."""
+    factor = config.edges.contact_scales
+    labels = assignment.labels
+    kept = labels >= 0
+    if factor == 0 or not kept.any():
+        return None
+    size = float(np.median(np.max(np.asarray(folder.gaussians.scales)[kept], axis=1)))
+    if not (np.isfinite(size) and size > 0):
+        return None
+    means = np.asarray(folder.gaussians.means)
+    order = np.argsort(labels[kept], kind="stable")
+    ids, starts = np.unique(labels[kept][order], return_index=True)
+    points = dict(zip(ids.tolist(), np.split(means[kept][order], starts[1:]), strict=True))
+    return Surfaces(points, radius=factor * size)
 
 
 def view_image(folder: SceneFolder, view: int) -> np.ndarray:

@@ -50,6 +50,11 @@ class EdgeConfig:
         relate_structural: when False (default), floors, walls and ceilings take no part in
             above/below/near/next_to; when True they do (support and containment rules for
             them are as above either way).
+        contact_scales: in a scene built from Gaussians, a support pair off the floor needs
+            the two entities' Gaussians to touch: centres within this many median
+            Gaussian sizes (the largest axis) of one another
+            (:mod:`causalsplat.graph.contact`); 0 keeps the box rule alone. Object tables
+            (no Gaussians) use the box rule.
     """
 
     tau_v: float = 0.3
@@ -66,6 +71,7 @@ class EdgeConfig:
     wall_categories: tuple[str, ...] = ("wall",)
     ceiling_categories: tuple[str, ...] = ("ceiling",)
     relate_structural: bool = False
+    contact_scales: float = 3.0
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -125,6 +131,7 @@ _ALLOWED: dict[str, Allowed] = {
     "support_overlap": Interval(0, 1, low_open=True),
     "contain_overlap": Interval(0, 1, low_open=True),
     "near_factor": Interval(0),
+    "contact_scales": Interval(0),
 }
 
 

@@ -42,7 +42,9 @@ B and B below A; near both ways), so a query can start from either end:
   never supported; with no floor entity nothing is floor-supported. Of the supporters
   that pass, an entity drops those its other supporters rest on (``reduce_support``
   [True]): a cup on a book on a table rests on the book only, a board across two stools
-  on both. Evidence: ``gap``,
+  on both. Given the entities' points (a built scene, ``surfaces=``), a pair off the
+  floor is kept only when the points touch (:mod:`causalsplat.graph.contact`), before
+  that reduction. Evidence: ``gap``,
   ``touch_tolerance``, ``overlap`` (fraction of U's footprint), ``distance``.
 - **inside / contains**: A is inside B when A's box volume is strictly smaller and the
   box overlap covers at least ``contain_overlap`` [0.8] of A's volume; never with a
@@ -89,10 +91,11 @@ from causalsplat.graph._edge_rules import (
     support,
     vertical,
 )
-from causalsplat.graph._edge_scene import EdgeScene, prepare_scene
+from causalsplat.graph._edge_scene import FLOOR, EdgeScene, prepare_scene
 from causalsplat.graph._edges_reference import reference_relations
 from causalsplat.graph._support_reduction import reduce_supporters
 from causalsplat.graph.config import EdgeConfig
+from causalsplat.graph.contact import Surfaces, drop_without_contact
 from graph_store import Entity, Relation, RelationType
 
 Candidates = Literal["kdtree", "all"]
@@ -104,12 +107,16 @@ def build_relations(
     *,
     up_axis: str = "z",
     candidates: Candidates = "kdtree",
+    surfaces: Surfaces | None = None,
 ) -> tuple[Relation, ...]:
     """The stored relations between ``entities`` (sorted by src, type, dst).
 
     ``candidates="kdtree"`` (default) evaluates the rules on KD-tree candidate pairs;
     ``"all"`` evaluates the same vectorised rules on every pair (a baseline for
-    benchmarks). Raises :class:`~causalsplat.graph.errors.EdgeInputError` for bad input.
+    benchmarks). ``surfaces`` (a built scene's entity points): a support pair off the
+    floor is kept only where the two entities' points touch
+    (:mod:`causalsplat.graph.contact`), before the supporters are reduced. Raises
+    :class:`~causalsplat.graph.errors.EdgeInputError` for bad input.
     """
     config = config or EdgeConfig()
     scene = prepare_scene(entities, config, up_axis)
@@ -121,11 +128,15 @@ def build_relations(
         from causalsplat.graph.errors import EdgeInputError
 
         raise EdgeInputError(f"candidates must be 'kdtree' or 'all', got {candidates!r}")
-    return tuple(reduce_supporters(_relations(scene, batches), config))
+    return tuple(reduce_supporters(_touching(scene, _relations(scene, batches), surfaces), config))
 
 
 def build_relations_bruteforce(
-    entities: Sequence[Entity], config: EdgeConfig | None = None, *, up_axis: str = "z"
+    entities: Sequence[Entity],
+    config: EdgeConfig | None = None,
+    *,
+    up_axis: str = "z",
+    surfaces: Surfaces | None = None,
 ) -> tuple[Relation, ...]:
     """The same relations by a scalar loop over every pair (the slow, plain reference)."""
     config = config or EdgeConfig()
@@ -134,7 +145,16 @@ def build_relations_bruteforce(
     ids = scene.ids.tolist()
     relations = [Relation(ids[s], ids[d], t, tuple(ev.items())) for (s, t, d), ev in found.items()]
     relations.sort(key=_order)
-    return tuple(reduce_supporters(relations, config))
+    return tuple(reduce_supporters(_touching(scene, relations, surfaces), config))
+
+
+def _touching(
+    scene: EdgeScene, relations: Sequence[Relation], surfaces: Surfaces | None
+) -> Sequence[Relation]:
+    if surfaces is None:
+        return relations
+    floors = scene.ids[scene.kind == FLOOR].tolist()
+    return drop_without_contact(relations, surfaces, floors)
 
 
 def _kdtree_batches(scene: EdgeScene, config: EdgeConfig) -> list[EdgeBatch]:
