@@ -240,14 +240,11 @@ def test_to_json() -> None:
 # -- property check against a slow reference ---------------------------------------------
 
 
-def reference(
-    pred: list[int],
-    gt: list[int],
-    scores: dict[int, float] | None,
-    min_size: int,
-    ignore: set[int],
-) -> tuple[int, int, float, float, float]:
-    """(n_gt, n_pred, mean best IoU, AP50, AP25) with plain Python sets."""
+def evaluated_sets(
+    pred: list[int], gt: list[int], min_size: int, ignore: set[int]
+) -> tuple[dict[int, set[int]], dict[int, set[int]]]:
+    """The evaluated GT and predicted instances as sets of element indices (the module
+    docstring's ``min_size``, ``ignore`` and left-out rules)."""
     gt_sets: dict[int, set[int]] = {}
     pred_sets: dict[int, set[int]] = {}
     for i, (p, g) in enumerate(zip(pred, gt)):
@@ -259,6 +256,18 @@ def reference(
     left_out_elems = set().union(*(gt_sets[g] for g in left_out))
     gts = {g: s for g, s in gt_sets.items() if g not in left_out}
     preds = {p: s for p, s in pred_sets.items() if not len(s & left_out_elems) > len(s) / 2}
+    return gts, preds
+
+
+def reference(
+    pred: list[int],
+    gt: list[int],
+    scores: dict[int, float] | None,
+    min_size: int,
+    ignore: set[int],
+) -> tuple[int, int, float, float, float]:
+    """(n_gt, n_pred, mean best IoU, AP50, AP25) with plain Python sets."""
+    gts, preds = evaluated_sets(pred, gt, min_size, ignore)
 
     def iou(a: set[int], b: set[int]) -> float:
         return len(a & b) / len(a | b)
@@ -332,17 +341,7 @@ def panoptic_reference(
     pred: list[int], gt: list[int], min_size: int, ignore: set[int]
 ) -> tuple[float, float, float, int, int, int, int]:
     """(PQ, SQ, RQ, split, merged, missed, extra) with plain Python sets."""
-    gt_sets: dict[int, set[int]] = {}
-    pred_sets: dict[int, set[int]] = {}
-    for i, (p, g) in enumerate(zip(pred, gt)):
-        if g >= 0:
-            gt_sets.setdefault(g, set()).add(i)
-        if p >= 0:
-            pred_sets.setdefault(p, set()).add(i)
-    left_out = {g for g, s in gt_sets.items() if len(s) < min_size or g in ignore}
-    left_out_elems = set().union(*(gt_sets[g] for g in left_out))
-    gts = {g: s for g, s in gt_sets.items() if g not in left_out}
-    preds = {p: s for p, s in pred_sets.items() if not len(s & left_out_elems) > len(s) / 2}
+    gts, preds = evaluated_sets(pred, gt, min_size, ignore)
     matches = [
         len(gs & ps) / len(gs | ps)
         for gs in gts.values()
