@@ -119,23 +119,29 @@ def assign_instances(
     cluster = index_of[raw]  # raw -1 reads the last slot, -1
     feats = evidence.features.astype(np.float64)
     centers = _centers(feats, cluster, len(order), field.dim)
+    votes: sp.csr_matrix | None = None
     if config.merge_overlap < 1 and len(order) > 1:
         # clusters whose masks draw the same Gaussians, with features alike, are one
-        # object seen from two sides (consensus.py)
-        votes, _ = _vote_scores(evidence, cluster, centers, field.features, 0.0)
+        # object seen from two sides (consensus.py); the views' votes serve the merge and,
+        # their merged clusters' columns summed, the assignment
+        votes, vote_rows = _view_votes(evidence, cluster, len(order))
         alike = centers.astype(np.float64) @ centers.T.astype(np.float64) >= config.merge_cosine
-        cluster = merged_clusters(cluster, votes, config.merge_overlap, alike)
-        n = int(cluster.max()) + 1 if (cluster >= 0).any() else 0
+        merged = merged_clusters(cluster, votes, config.merge_overlap, alike)
+        n = int(merged.max()) + 1 if (merged >= 0).any() else 0
         if n < len(order):
-            order = list(range(n))
+            votes = _merge_columns(votes, cluster, merged, n)
+            cluster, order = merged, list(range(n))
             centers = _centers(feats, cluster, n, field.dim)
     if config.assignment == "feature":
         rows = np.flatnonzero(field.supervised)
         scores = field.features[rows].astype(np.float64) @ centers.T
     else:
-        scores, rows = _vote_scores(
-            evidence, cluster, centers, field.features, config.vote_feature_power
+        if votes is None:
+            votes, vote_rows = _view_votes(evidence, cluster, len(order))
+        scores = _with_agreement(
+            votes, vote_rows, centers, field.features, config.vote_feature_power
         )
+        rows = vote_rows
     labels, score, kept = _assign(field.n, scores, rows, config)
     remap = np.full(len(order) + 1, -1, dtype=np.int64)
     remap[kept] = np.arange(kept.size)
@@ -159,21 +165,16 @@ def _centers(feats: np.ndarray, cluster: np.ndarray, k: int, dim: int) -> np.nda
     )
 
 
-def _vote_scores(
-    evidence: MaskEvidence,
-    cluster: np.ndarray,
-    centers: np.ndarray,
-    features: np.ndarray,
-    power: float,
+def _view_votes(
+    evidence: MaskEvidence, cluster: np.ndarray, k: int
 ) -> tuple[sp.csr_matrix, np.ndarray]:
-    """(S, K) sparse per-view votes of each Gaussian for each cluster, times feature agreement.
+    """(S, K) sparse per-view votes of each Gaussian for each cluster (step 3, before the
+    feature agreement) and the Gaussians of the rows, indices (S,).
 
-    Rows are the Gaussians drawn inside some clustered mask (indices (S,)); see step 3 of
-    the module docstring. Only the (Gaussian, cluster) pairs that received a vote are
-    stored: a Gaussian is seen inside the masks of a few clusters, not of all K, so the
-    memory grows with the votes cast, not with N x K.
+    Rows are the Gaussians drawn inside some clustered mask. Only the (Gaussian, cluster)
+    pairs that received a vote are stored: a Gaussian is seen inside the masks of a few
+    clusters, not of all K, so the memory grows with the votes cast, not with N x K.
     """
-    k = centers.shape[0]
     coo = evidence.gaussian_weight.tocoo()
     keep = (cluster[coo.row] >= 0) & (coo.data > 0)
     mask, gauss, weight = coo.row[keep], coo.col[keep], coo.data[keep]
@@ -188,12 +189,39 @@ def _vote_scores(
     rows, row_of = np.unique(gauss, return_inverse=True)
     votes = sp.csr_matrix((share, (row_of, cluster[mask])), shape=(rows.size, k))
     votes.sum_duplicates()  # also sorts each row's columns, which the ties rely on
-    if power > 0:
-        row_idx = np.repeat(np.arange(rows.size), np.diff(votes.indptr))
-        f = features[rows].astype(np.float64)
-        agree = np.einsum("ij,ij->i", f[row_idx], centers[votes.indices].astype(np.float64))
-        votes.data *= np.clip(agree, 0.0, None) ** power
     return votes, rows.astype(np.int64)
+
+
+def _merge_columns(
+    votes: sp.csr_matrix, before: np.ndarray, after: np.ndarray, n: int
+) -> sp.csr_matrix:
+    """The votes with the columns of merged clusters summed (a mask's cluster ``before``
+    and ``after`` the merge; ``n`` clusters after)."""
+    pairs = np.unique(np.stack([before, after])[:, before >= 0], axis=1)
+    to = sp.csr_matrix((np.ones(pairs.shape[1]), (pairs[0], pairs[1])),
+                       shape=(votes.shape[1], n))  # fmt: skip
+    merged = sp.csr_matrix(votes @ to)
+    merged.sum_duplicates()
+    return merged
+
+
+def _with_agreement(
+    votes: sp.csr_matrix,
+    rows: np.ndarray,
+    centers: np.ndarray,
+    features: np.ndarray,
+    power: float,
+) -> sp.csr_matrix:
+    """The votes times the feature agreement ``max(0, f·C_k) ** power`` (step 3), scaled
+    in place (the votes are not used again) and returned."""
+    if power <= 0 or votes.nnz == 0:
+        return votes
+    out = votes
+    row_idx = np.repeat(np.arange(rows.size), np.diff(out.indptr))
+    f = features[rows].astype(np.float64)
+    agree = np.einsum("ij,ij->i", f[row_idx], centers[out.indices].astype(np.float64))
+    out.data *= np.clip(agree, 0.0, None) ** power
+    return out
 
 
 def _best_of(scores: np.ndarray | sp.csr_matrix, share: bool) -> tuple[np.ndarray, np.ndarray]:

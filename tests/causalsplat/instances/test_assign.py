@@ -213,7 +213,7 @@ def _dense_reference_labels(
 def test_sparse_votes_match_a_dense_vote_matrix(seed: int) -> None:
     """The sparse vote accumulation takes the decisions of the dense (N, K) one, cluster
     dropping included, on random evidence with ties and all-zero agreements."""
-    from causalsplat.instances.assign import _assign, _vote_scores
+    from causalsplat.instances.assign import _assign, _view_votes, _with_agreement
 
     rng = np.random.default_rng(seed)
     n, m, k, dim = 400, 60, 7, 5
@@ -229,7 +229,8 @@ def test_sparse_votes_match_a_dense_vote_matrix(seed: int) -> None:
     feats[:20] = 0.0  # no agreement with any cluster
     config = InstanceConfig(min_gaussians=12, min_vote_share=0.3)
     for power in (0.0, 1.0):
-        scores, rows = _vote_scores(evidence, cluster, centers, feats, power)
+        votes, rows = _view_votes(evidence, cluster, k)
+        scores = _with_agreement(votes, rows, centers, feats, power)
         assert sp.issparse(scores) and scores.nnz < rows.size * k
         labels, best, _ = _assign(n, scores, rows, config)
         ref_labels, ref_best = _dense_reference_labels(
