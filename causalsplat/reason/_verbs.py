@@ -2,12 +2,13 @@
 objects afford.
 
 A sentence embedding weighs every word of a need alike, so the nouns it merely mentions
-pull it towards the objects they name: "I want to cook pasta" scores a plate (you eat
-pasta from one) above the stove, and "something to put my coffee on" a cup above a
-tray. What the need asks of the object is its verb: something to *cook* with, somewhere
-to *put* a thing *on*. :func:`need_verbs` finds the verbs of a need's words (WordNet:
-a word with verb senses at least as many as its noun senses, or a gerund) and
-:func:`verb_fit` how well a category's facts afford one of them: its ``affords`` and
+pull it towards the objects they name. What the need asks of the object is its verb:
+somewhere to *lie down*, something to *cook* with, somewhere to *put* a thing *on*. The
+grounding stage uses it to tell when nothing in a room does what is asked (stools come
+close to "I want to lie down" by meaning, but only couches and beds afford it; see
+``ground.VERB_SHARE``). :func:`need_verbs` finds the verb of a need's purpose clause
+(the first word WordNet knows as a verb, not a light verb, not after a determiner or a
+form of "be") and :func:`verb_fit` how well a category's facts afford it: its ``affords`` and
 ``for`` phrases open with the verb, a WordNet synonym of it or a verb it is a kind of
 ("chop" is a kind of "cut"), with the need's particle ("put ... on") when it has one. The
 need's other words (its objects) count only with the verb: a pot affords cooking and
@@ -47,6 +48,7 @@ NOUN_MARKERS = DETERMINERS
 #: tired", "I feel so bored").
 STATE_MARKERS = frozenset({"am", "is", "are", "was", "were", "be", "been", "'m", "'re", "'s",
                            "feel", "feeling", "so", "too", "very", "really"})  # fmt: skip
+_NOT_A_VERB_AFTER = NOUN_MARKERS | STATE_MARKERS
 #: A synonym of the need's verb counts this much, a verb the one is a kind of this much.
 SYNONYM = 0.8
 KIND_OF = 0.5
@@ -78,7 +80,7 @@ def need_verbs(tokens: tuple[str, ...], lexicon: Lexicon) -> NeedVerbs:
     prev = ""
     for w in words:
         if verb is None:
-            if w not in ACTION_STOPWORDS and prev not in NOUN_MARKERS | STATE_MARKERS:
+            if w not in ACTION_STOPWORDS and prev not in _NOT_A_VERB_AFTER:
                 base = lexicon.lemma(w, "v")
                 if base not in LIGHT_VERBS and lexicon.verb_senses(base):
                     verb = base
