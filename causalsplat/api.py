@@ -61,11 +61,15 @@ def _needs_evidence(query: str) -> bool:
     return _EVIDENCE_TERMS.search(query) is not None
 
 
-def open_store(url: str | None = None, *, create: bool = True) -> Store:
-    """Open the store at ``url`` (default ``$CAUSALSPLAT_DB`` or ``sqlite:///causalsplat.db``).
+def open_store(url: str | os.PathLike[str] | None = None, *, create: bool = True) -> Store:
+    """Open the store at ``url``: a database URL or a SQLite file's path (default
+    ``$CAUSALSPLAT_DB`` or ``sqlite:///causalsplat.db``).
 
-    A new SQLite file (or an empty PostgreSQL database) is initialised when ``create`` is
-    true. Raises ``StoreConnectionError`` or ``SchemaVersionError`` (see ``graph_store``).
+    With ``create`` true, a SQLite file that does not exist is created by the first write
+    (until then the store reads as empty, and a mistyped path creates nothing), and an
+    empty PostgreSQL database is initialised; with ``create`` false, a missing file raises
+    ``StoreNotFoundError``. Raises ``StoreConnectionError`` or ``SchemaVersionError`` (see
+    ``graph_store``).
     """
     if url is None:
         url = os.environ.get("CAUSALSPLAT_DB") or DEFAULT_URL
@@ -108,7 +112,7 @@ class Store:
     def scene(self, scene_id: str) -> Scene:
         """A handle on a stored scene; raises ``SceneNotFound``."""
         if not self.graph_store.has_scene(scene_id):
-            raise SceneNotFound(f"no scene {scene_id!r} in the store at {self.graph_store.url}")
+            raise SceneNotFound(f"no scene {scene_id!r} in the store at {self.graph_store.where}")
         return Scene(self, scene_id)
 
     def save_scene(

@@ -5,6 +5,7 @@ repository (:func:`open_store`), the RDF vocabulary, export/import, and read-onl
 This package never imports torch.
 """
 
+from graph_store._engine import as_url
 from graph_store.errors import (
     EntityNotFound,
     GraphStoreError,
@@ -69,6 +70,7 @@ __all__ = [
     "StoreConnectionError",
     "StoreNotFoundError",
     "View",
+    "as_url",
     "decode_labels",
     "open_store",
 ]

@@ -17,6 +17,7 @@ upgrade), plain ``BEGIN`` for reads.
 from __future__ import annotations
 
 import os
+import re
 from typing import Any
 
 import sqlalchemy as sa
@@ -36,8 +37,32 @@ POSTGRES_CONNECT_TIMEOUT_S = 10
 WRITE = {"graph_store_write": True}
 
 
-def parse_url(url: str | URL) -> URL:
-    """Parse a database URL, raising :class:`StoreConnectionError` when it is malformed."""
+_SCHEME = re.compile(r"[A-Za-z][A-Za-z0-9+.-]*:")
+
+
+def as_url(url: str | os.PathLike[str] | URL) -> str | URL:
+    """A database URL as given, or a plain file path (no ``scheme:``) as the URL of that
+    SQLite file.
+
+    >>> as_url("demo-out/demo.db")
+    'sqlite:///demo-out/demo.db'
+    >>> as_url("/data/scenes.db")
+    'sqlite:////data/scenes.db'
+    >>> as_url("postgresql+psycopg://me@host/scenes")
+    'postgresql+psycopg://me@host/scenes'
+    """
+    if isinstance(url, URL):
+        return url
+    text = os.fspath(url)
+    if not text.strip() or _SCHEME.match(text):
+        return text
+    return f"sqlite:///{text}"
+
+
+def parse_url(url: str | os.PathLike[str] | URL) -> URL:
+    """Parse a database URL (or a SQLite file path, see :func:`as_url`), raising
+    :class:`StoreConnectionError` when it is malformed."""
+    url = as_url(url)
     if isinstance(url, str) and not url.strip():
         raise StoreConnectionError(
             "the database URL is empty: use sqlite:///PATH or postgresql+psycopg://USER@HOST/DB"
@@ -173,9 +198,9 @@ def _postgres_engine(url: URL, *, echo: bool) -> Engine:
     return sa.create_engine(url, echo=echo, pool_pre_ping=True, connect_args=connect_args)
 
 
-def describe_url(url: str | URL) -> str:
+def describe_url(url: str | os.PathLike[str] | URL) -> str:
     """The URL as text with any password hidden, for messages."""
     try:
-        return make_url(url).render_as_string(hide_password=True)
+        return make_url(as_url(url)).render_as_string(hide_password=True)
     except (sa.exc.ArgumentError, ValueError):
         return "<malformed URL>"

@@ -14,6 +14,7 @@ database intact and no partial scene visible.
 from __future__ import annotations
 
 import json
+import os
 from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -28,6 +29,7 @@ from sqlalchemy.engine import Connection, Engine
 from graph_store import models as m
 from graph_store._engine import (
     WRITE,
+    as_url,
     create_store_engine,
     describe_url,
     missing_sqlite_file,
@@ -77,8 +79,11 @@ class SceneSummary:
     config_hash: str | None
 
 
-def open_store(url: str, *, create: bool = True, echo: bool = False) -> GraphStore:
-    """Open (and, for an empty database with ``create=True``, initialise) a store.
+def open_store(
+    url: str | os.PathLike[str], *, create: bool = True, echo: bool = False
+) -> GraphStore:
+    """Open (and, for an empty database with ``create=True``, initialise) a store: a
+    database URL, or a SQLite file's path.
 
     With ``create=False`` nothing is written: a SQLite file that does not exist raises
     :class:`StoreNotFoundError` instead of being created, and one on a read-only filesystem
@@ -87,6 +92,7 @@ def open_store(url: str, *, create: bool = True, echo: bool = False) -> GraphSto
     or the file is not a database, and :class:`SchemaVersionError` when its schema needs a
     migration.
     """
+    url = as_url(url)
     if not create:
         missing = missing_sqlite_file(url)
         if missing is not None:
@@ -94,7 +100,18 @@ def open_store(url: str, *, create: bool = True, echo: bool = False) -> GraphSto
                 f"no store at {describe_url(url)}: {missing} does not exist"
                 " (`causalsplat build` or `ingest-objects` creates one)"
             )
+    elif (missing := missing_sqlite_file(url)) is not None:
+        folder = os.path.dirname(os.path.abspath(missing))
+        if not os.path.isdir(folder):
+            raise StoreConnectionError(
+                f"cannot open the store at {describe_url(url)}: no such directory {folder}"
+            )
+        return GraphStore(None, pending=(str(url), echo))
     read_only = not create and on_read_only_filesystem(url)
+    return GraphStore(_open_engine(url, echo=echo, read_only=read_only, create=create))
+
+
+def _open_engine(url: str, *, echo: bool, read_only: bool, create: bool) -> Engine:
     engine = create_store_engine(url, echo=echo, read_only=read_only)
     try:
         ensure_schema(engine, create=create)
@@ -107,26 +124,68 @@ def open_store(url: str, *, create: bool = True, echo: bool = False) -> GraphSto
     except BaseException:
         engine.dispose()
         raise
-    return GraphStore(engine)
+    return engine
 
 
 class GraphStore:
-    """Scene graphs persisted in one SQLite or PostgreSQL database."""
+    """Scene graphs persisted in one SQLite or PostgreSQL database.
 
-    def __init__(self, engine: Engine) -> None:
-        self.engine = engine
+    A store opened with ``create=True`` on a SQLite file that does not exist is *pending*:
+    it reads as empty and its file is created by the first write (or by the first use of
+    :attr:`engine`), so that opening a mistyped path to read from it creates nothing.
+    """
+
+    def __init__(self, engine: Engine | None, *, pending: tuple[str, bool] | None = None) -> None:
+        if (engine is None) == (pending is None):
+            raise ValueError("GraphStore needs an engine or a pending SQLite URL, not both")
+        self._engine = engine
+        self._pending = pending
+        self._empty: Engine | None = None
+
+    @property
+    def engine(self) -> Engine:
+        """The SQLAlchemy engine (a pending store's file is created here)."""
+        return self.initialise()._ready()
+
+    def _ready(self) -> Engine:
+        assert self._engine is not None
+        return self._engine
+
+    def initialise(self) -> GraphStore:
+        """Create a pending store's file and schema now (its first write would), so that
+        other processes can open it with ``create=False``; no-op otherwise."""
+        if self._engine is None:
+            self._materialise()
+        return self
+
+    @property
+    def pending(self) -> bool:
+        """Whether this store's SQLite file does not exist yet (class docstring)."""
+        return self._engine is None
+
+    def _materialise(self) -> None:
+        assert self._pending is not None
+        url, echo = self._pending
+        self._engine = _open_engine(url, echo=echo, read_only=False, create=True)
+        self._pending = None
+        if self._empty is not None:
+            self._empty.dispose()
+            self._empty = None
 
     @property
     def url(self) -> str:
-        return describe_url(self.engine.url)
+        return describe_url(self._pending[0] if self._pending else self.engine.url)
 
     @property
     def dialect(self) -> str:
         """``"sqlite"`` or ``"postgresql"``."""
-        return self.engine.dialect.name
+        return "sqlite" if self._pending else self.engine.dialect.name
 
     def close(self) -> None:
-        self.engine.dispose()
+        if self._engine is not None:
+            self._engine.dispose()
+        if self._empty is not None:
+            self._empty.dispose()
 
     def __enter__(self) -> GraphStore:
         return self
@@ -141,8 +200,20 @@ class GraphStore:
 
     @contextmanager
     def _read(self) -> Iterator[Connection]:
-        with self._wrap_errors(), self.engine.connect() as conn, conn.begin():
+        with self._wrap_errors(), self._reader().connect() as conn, conn.begin():
             yield conn
+
+    def _reader(self) -> Engine:
+        """The engine reads go to: while pending, an empty in-memory store, unless the
+        file has been created meanwhile (by another process), which is then opened."""
+        if self._pending is None:
+            return self.engine
+        if missing_sqlite_file(self._pending[0]) is None:
+            self._materialise()
+            return self.engine
+        if self._empty is None:
+            self._empty = _open_engine("sqlite://", echo=False, read_only=False, create=True)
+        return self._empty
 
     @contextmanager
     def _write(self) -> Iterator[Connection]:
@@ -295,8 +366,15 @@ class GraphStore:
     def _scene_row(self, conn: Connection, scene_id: str) -> sa.Row[Any]:
         row = conn.execute(sa.select(m.scenes).where(m.scenes.c.id == scene_id)).first()
         if row is None:
-            raise SceneNotFound(f"no scene {scene_id!r} in the store at {self.url}")
+            raise SceneNotFound(f"no scene {scene_id!r} in the store at {self.where}")
         return row
+
+    @property
+    def where(self) -> str:
+        """The store's URL for a message; for a pending store, that its file is missing."""
+        if self._pending is None:
+            return self.url
+        return f"{self.url} (no such file: check the path)"
 
     # -- entities ------------------------------------------------------------------------
 

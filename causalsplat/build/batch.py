@@ -40,6 +40,7 @@ from typing import IO, Any, Literal
 from causalsplat.build.config import BuildConfig, _physical_memory
 from causalsplat.build.pipeline import scene_id_of
 from causalsplat.errors import CausalSplatError
+from graph_store import as_url
 
 Status = Literal["built", "skipped", "failed"]
 BatchIfExists = Literal["skip", "replace", "rebuild"]
@@ -217,6 +218,7 @@ def build_many(
     config = config or BuildConfig()
     paths = _check_folders(folders)
     ids = plan_scene_ids(paths)
+    store_url = str(as_url(store_url))
     store = _prepare_store(store_url)
     cores = _cores()
     if ray_address is None:
@@ -347,7 +349,7 @@ def _prepare_store(url: str) -> str:
                 "(sqlite:///PATH) or a PostgreSQL server, not an in-memory database"
             )
     with open_store(url) as store:
-        return store.url
+        return store.initialise().url
 
 
 class _Events:

@@ -12,6 +12,7 @@ from typing import Any, NoReturn, TypeVar
 import click
 
 from causalsplat.errors import CausalSplatError
+from graph_store import as_url
 from graph_store.errors import GraphStoreError
 
 DEFAULT_DB = "sqlite:///causalsplat.db"
@@ -59,7 +60,7 @@ class _Group(click.Group):
     "--db",
     "db_url",
     default=None,
-    help="Database URL for the command (the same as the command's own --db, which wins).",
+    help="Database URL or SQLite file path for the command (its own --db wins).",
 )
 @click.pass_context
 def cli(ctx: click.Context, db_url: str | None) -> None:
@@ -87,9 +88,15 @@ def db_option(func: F) -> F:
         "--db",
         "db_url",
         default=default_db,
+        callback=_store_url,
         show_default="sqlite:///causalsplat.db or $CAUSALSPLAT_DB",
-        help="Database URL (sqlite:///PATH or postgresql+psycopg://...).",
+        help="Database URL (sqlite:///PATH or postgresql+psycopg://...), or a SQLite file's path.",
     )(func)
+
+
+def _store_url(_ctx: click.Context, _param: click.Parameter, value: str) -> str:
+    """A plain file path given for --db names a SQLite file."""
+    return str(as_url(value))
 
 
 def json_option(func: F) -> F:

@@ -139,3 +139,16 @@ def test_db_before_the_command_name(tmp_path: Path, monkeypatch: pytest.MonkeyPa
     monkeypatch.setenv("CAUSALSPLAT_DB", missing)
     assert "k " in run("--db", here, "scenes").stdout
     assert_one_line_error(run("scenes", check=False), "no store at")
+
+
+def test_a_plain_path_for_db_is_a_sqlite_file(tmp_path: Path) -> None:
+    doc = tmp_path / "objects.json"
+    doc.write_text(json.dumps(KITCHEN))
+    run("ingest-objects", str(doc), db=str(tmp_path / "plain.db"))  # no sqlite:/// prefix
+    assert "kitchen " in run("scenes", db=f"sqlite:///{tmp_path / 'plain.db'}").stdout
+    relative = run("ingest-objects", str(doc), "--db", "sub/rel.db", check=False)
+    assert relative.returncode != 0  # REPO_ROOT/sub does not exist: refused, nothing made
+    assert "no such directory" in relative.stderr and not (REPO_ROOT / "sub").exists()
+    refused = run("scenes", db=str(tmp_path / "typo.db"), check=False)
+    assert_one_line_error(refused, "no store at")
+    assert not (tmp_path / "typo.db").exists()

@@ -157,7 +157,7 @@ def test_open_without_create_refuses_an_empty_database(db_url: str) -> None:
 @pytest.mark.parametrize(
     ("url", "message"),
     [
-        ("not a url", "malformed database URL"),
+        ("sqlite:/no-slashes.db", "malformed database URL"),
         ("mysql://u@localhost/db", "unsupported database 'mysql'"),
         ("sqlite:////nonexistent-dir/sub/store.db", "cannot open the store"),
         ("postgresql+psycopg://nobody@127.0.0.1:1/none", "cannot open the store"),
@@ -166,6 +166,24 @@ def test_open_without_create_refuses_an_empty_database(db_url: str) -> None:
 def test_bad_or_unreachable_urls_are_typed_errors(url: str, message: str) -> None:
     with pytest.raises(StoreConnectionError, match=message):
         open_store(url)
+
+
+def test_a_plain_path_is_a_sqlite_file_created_by_the_first_write(tmp_path: Path) -> None:
+    path = tmp_path / "typo.db"
+    with open_store(str(path)) as store:  # no sqlite:/// prefix: a file path
+        assert store.pending and store.list_scenes() == []
+        with pytest.raises(SceneNotFound, match="no such file: check the path"):
+            store.load_scene("kitchen")
+        assert not path.exists()  # reading a mistyped path creates nothing
+        store.save_scene(small_scene("kitchen"))
+        assert path.exists() and not store.pending
+    with open_store(f"sqlite:///{path}", create=False) as store:
+        assert [s.scene_id for s in store.list_scenes()] == ["kitchen"]
+
+
+def test_a_store_in_a_missing_directory_fails_at_open(tmp_path: Path) -> None:
+    with pytest.raises(StoreConnectionError, match="no such directory"):
+        open_store(str(tmp_path / "no" / "such" / "store.db"))
 
 
 def test_sqlite_runs_in_wal_mode_with_foreign_keys(sqlite_url: str) -> None:

@@ -91,8 +91,8 @@ def test_the_real_inria_ply_with_unrelated_cameras_is_refused(
     shutil.copy(ply, scene / "point_cloud.ply")  # a real capture's Gaussians, our cameras
     db_path = tmp_path / "m.db"
     db = f"sqlite:///{db_path}"
-    with open_store(db):
-        pass
+    with open_store(db) as store:
+        store.graph_store.initialise()  # an empty store, as the refused build must leave it
     before = db_path.read_bytes()
     refused = run("build", str(scene), "--no-cache", db=db, check=False)
     assert_one_line_error(refused, "do not look like one capture")

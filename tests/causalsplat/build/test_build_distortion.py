@@ -19,8 +19,8 @@ def test_build_refuses_a_distorted_model_and_builds_it_when_allowed(
     distort(scene)
     db_path = tmp_path / "d.db"
     db = f"sqlite:///{db_path}"
-    with open_store(db):
-        pass  # an empty store, as the refused build must leave it
+    with open_store(db) as store:
+        store.graph_store.initialise()  # an empty store, as the refused build must leave it
     before = db_path.read_bytes()
     config = tmp_path / "fast.json"
     config.write_text(json.dumps({"field": {"iterations": 20}}))

@@ -179,8 +179,8 @@ def test_concurrent_saves_from_several_processes(tmp_path: Path) -> None:
     """Four processes storing scenes into one SQLite file at once all succeed (WAL, the
     busy timeout and BEGIN IMMEDIATE queue the writers)."""
     db = f"sqlite:///{tmp_path / 'many.db'}"
-    with open_store(db):
-        pass
+    with open_store(db) as store:
+        store.graph_store.initialise()  # the workers open it with create=False
     script = (
         "import sys\n"
         "from causalsplat import open_store\n"
