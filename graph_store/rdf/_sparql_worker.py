@@ -110,8 +110,11 @@ class QueryWorker:
     def _start(self) -> None:
         context = multiprocessing.get_context("fork")
         parent, child = context.Pipe()
+        # the parent-death signal fires when the forking *thread* ends: only the main
+        # thread's lasts as long as the process (a server's request thread does not)
+        bound = threading.current_thread() is threading.main_thread()
         process = context.Process(
-            target=_serve, args=(self._backend, self.budget, child),
+            target=_serve, args=(self._backend, self.budget, child, os.getpid(), bound),
             name="sparql-worker", daemon=True,
         )  # fmt: skip
         process.start()
@@ -141,9 +144,41 @@ def _kill(process: Any, conn: Any) -> None:
     conn.close()
 
 
-def _serve(backend: Backend, budget: int, conn: Any) -> None:  # pragma: no cover - in the worker
+#: How often a worker checks that its parent is alive, in seconds.
+PARENT_CHECK_S = 0.5
+
+
+def _die_with(parent: int, bound: bool) -> None:  # pragma: no cover - in the worker
+    """End this worker when its parent process dies, even by SIGKILL: the kernel's
+    parent-death signal (Linux, when the forking thread lives as long as the parent), and
+    a thread that checks the parent every :data:`PARENT_CHECK_S` s. An orphaned worker
+    would otherwise run its query on, hold its memory and keep a server's port."""
+    if bound:
+        try:
+            import ctypes
+            import signal
+
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(1, signal.SIGKILL, 0, 0, 0)  # PR_SET_PDEATHSIG
+        except (OSError, AttributeError):
+            pass
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(PARENT_CHECK_S)
+        os._exit(1)
+
+    if os.getppid() != parent:  # the parent died before the signal was armed
+        os._exit(1)
+    threading.Thread(target=watch, name="parent-watch", daemon=True).start()
+
+
+def _serve(
+    backend: Backend, budget: int, conn: Any, parent: int, bound: bool
+) -> None:  # pragma: no cover - in the worker
     import faulthandler
 
+    _die_with(parent, bound)
     faulthandler.disable()  # a dump of this process would land on the caller's stderr
     try:  # an engine that aborts on a failed allocation prints there: keep it off the
         null = os.open(os.devnull, os.O_WRONLY)  # caller's terminal (errors come by pipe)
