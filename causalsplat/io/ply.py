@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import os
 import re
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -269,8 +269,10 @@ def write_ply(
     *,
     extra: Mapping[str, np.ndarray] | None = None,
     layout: PlyLayout | None = None,
+    comments: Sequence[str] = (),
 ) -> None:
-    """Write ``scene`` as a 3DGS PLY, with ``extra`` per-Gaussian properties appended.
+    """Write ``scene`` as a 3DGS PLY, with ``extra`` per-Gaussian properties appended
+    and ``comments`` added to the header's comment lines.
 
     ``layout`` (from :func:`read_gaussian_ply`) keeps another file's property order,
     dtypes and header; without it the INRIA order is used (zero normals). Extra integer
@@ -303,7 +305,7 @@ def write_ply(
         [element],
         text=base.text,
         byte_order=base.byte_order,
-        comments=list(base.comments),
+        comments=[*base.comments, *comments],
         obj_info=list(base.obj_info),
     )
     tmp = path.with_name(path.name + ".tmp")

@@ -33,7 +33,7 @@ class SynthObject:
     """One entity of a synthetic room: an axis-aligned box.
 
     Attributes:
-        id: entity id (also the external id in ``objects.json`` and the PLY ``entity_id``).
+        id: entity id (also the external id in ``objects.json`` and the PLY's ``gt_instance``).
         category: vocabulary category name.
         kind: structure, furniture or small object.
         center, size: box centre and full extent (x, y, z), metres, world frame, z up.

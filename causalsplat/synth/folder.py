@@ -2,7 +2,7 @@
 
 Layout (``<stem>`` is a view's image stem)::
 
-    point_cloud.ply          3DGS PLY with an ``entity_id`` property (GT entity, -1 none)
+    point_cloud.ply          3DGS PLY with a ``gt_instance`` property (GT entity, -1 none)
     sparse/0/*.txt           COLMAP text model: one PINHOLE camera per image
     images/<stem>.png        rendered (or real) RGB
     masks/<stem>.npz         masks the build reads (noisy; labels = category names)
@@ -33,6 +33,14 @@ import numpy as np
 from causalsplat.errors import CausalSplatError
 from causalsplat.io.types import Camera, GaussianScene
 from causalsplat.masks import MaskSet, write_masks
+
+#: The PLY vertex property holding the instance each Gaussian was generated from: the
+#: generator's ground truth, not an entity of any build (docs/formats.md).
+GT_PROPERTY = "gt_instance"
+GT_COMMENTS = (
+    "gt_instance: ground-truth instance of each Gaussian (-1 none), from the generator;"
+    " not a built entity",
+)
 
 
 class SceneFolderError(CausalSplatError):
@@ -127,7 +135,8 @@ def _write_all(root: Path, content: SceneFolderContent) -> None:
     for sub in ("images", "masks", "gt/masks", "sparse/0"):
         (root / sub).mkdir(parents=True)
     labels = np.asarray(content.labels, dtype=np.int32)
-    write_ply(root / "point_cloud.ply", content.gaussians, extra={"entity_id": labels})
+    write_ply(root / "point_cloud.ply", content.gaussians, extra={GT_PROPERTY: labels},
+              comments=GT_COMMENTS)  # fmt: skip
     write_cameras(root / "sparse" / "0", content.cameras)
     views = zip(content.cameras, content.images, content.masks, content.gt_masks, strict=True)
     for cam, image, masks, gt in views:

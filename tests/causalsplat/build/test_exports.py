@@ -56,14 +56,14 @@ def test_ply_and_per_entity_plys(built_db: tuple[str, Path], tmp_path: Path) -> 
     assert len(doc["paths"]) == 3 + len(graph.entities)
     total = sum(read_gaussian_ply(p).scene.n for p in doc["paths"][3:])
     assert total == int((labels >= 0).sum())
-    # --embed-labels: the source's properties (its GT entity_id too), then causalsplat_entity
+    # --embed-labels: the source's properties (its gt_instance too), then causalsplat_entity
     embedded = tmp_path / "embedded.ply"
     text = run("export", "--scene", "t", "--format", "ply", "--embed-labels", "-o",
                str(embedded), db=url).stdout  # fmt: skip
     assert text.strip() == f"wrote {embedded}"
     ply = read_gaussian_ply(embedded)
     np.testing.assert_array_equal(ply.extra["causalsplat_entity"], labels)
-    np.testing.assert_array_equal(ply.extra["entity_id"], source.extra["entity_id"])
+    np.testing.assert_array_equal(ply.extra["gt_instance"], source.extra["gt_instance"])
     np.testing.assert_array_equal(ply.scene.means, source.scene.means)
 
 

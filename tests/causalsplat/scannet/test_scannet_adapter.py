@@ -83,7 +83,7 @@ def test_cameras_look_into_the_room(src: Path) -> None:
 def test_prepared_counts_and_labels(prepared: Path, raw_labels: np.ndarray) -> None:
     ply = read_gaussian_ply(prepared / "point_cloud.ply")
     assert ply.scene.n == N_VERTICES
-    np.testing.assert_array_equal(ply.extra["entity_id"], raw_labels - 1)
+    np.testing.assert_array_equal(ply.extra["gt_instance"], raw_labels - 1)
     np.testing.assert_array_equal(np.load(prepared / "gt" / "gt_labels.npy"), raw_labels - 1)
     objects = json.loads((prepared / "objects.json").read_text())
     assert objects["scene_id"] == "scene0000_00" and len(objects["objects"]) == N_OBJECTS
@@ -114,7 +114,7 @@ def test_prepared_masks_match_the_id_render(prepared: Path, src: Path) -> None:
     read = read_colmap_model(prepared / "sparse" / "0").cameras
     assert [c.name for c in read] == [f"{c.name}.png" for c in cams]
     gt = read_masks(prepared / "gt" / "masks" / "real_00011.npz")
-    ids = render_ids(ply.scene, read[-2], np.asarray(ply.extra["entity_id"], dtype=np.int64))
+    ids = render_ids(ply.scene, read[-2], np.asarray(ply.extra["gt_instance"], dtype=np.int64))
     assert np.mean(id_map_from_masks(gt) == ids) > 0.999
 
 

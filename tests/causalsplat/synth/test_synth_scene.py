@@ -96,14 +96,16 @@ def test_folder_layout(tiny: SynthScene, tiny_dir: Path) -> None:
 def test_ply_labels_and_cameras_round_trip(tiny: SynthScene, tiny_dir: Path) -> None:
     ply = read_gaussian_ply(tiny_dir / "point_cloud.ply")
     np.testing.assert_array_equal(ply.scene.means, tiny.gaussians.means)
-    np.testing.assert_array_equal(ply.extra["entity_id"], tiny.labels)
+    np.testing.assert_array_equal(ply.extra["gt_instance"], tiny.labels)
+    assert "entity_id" not in ply.extra  # the generator's truth is not named as an entity
+    assert any("ground-truth instance" in c for c in ply.layout.comments)
     np.testing.assert_array_equal(np.load(tiny_dir / "gt" / "gt_labels.npy"), tiny.labels)
     model = read_colmap_model(tiny_dir / "sparse" / "0")
     assert [c.name for c in model.cameras] == [f"{c.name}.png" for c in tiny.cameras]
     for read, made in zip(model.cameras, tiny.cameras, strict=True):
         np.testing.assert_allclose(read.T_cam_world, made.T_cam_world, atol=1e-9)
         assert (read.fx, read.cx, read.width) == pytest.approx((made.fx, made.cx, made.width))
-        ids = render_ids(ply.scene, read, ply.extra["entity_id"])
+        ids = render_ids(ply.scene, read, ply.extra["gt_instance"])
         gt = read_masks(tiny_dir / "gt" / "masks" / f"{made.name}.npz")
         assert np.mean(id_map_from_masks(gt) == ids) > 0.999
 
