@@ -33,7 +33,10 @@ LEVELS = ("spatial", "commonsense", "affordance", "counterfactual", "intrinsic")
     "--size", type=click.Choice(["tiny", "small", "medium"]), default="small", show_default=True,
     help="Synthetic scene size.",
 )  # fmt: skip
-@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
+@click.option(
+    "--seed", type=click.IntRange(min=0), default=0, show_default=True,
+    help="Seed of the generated room (the same seed writes the same room).",
+)  # fmt: skip
 @click.option("--db", "db_url", default=None, help="Database URL (default: OUTPUT/demo.db).")
 @json_option
 def demo(output: Path, size: str, seed: int, db_url: str | None, as_json: bool) -> None:

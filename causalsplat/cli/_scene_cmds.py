@@ -56,9 +56,9 @@ def _print_summary(summary: object, as_json: bool) -> None:
 def synth_cmd(
     size: str, seed: int, out_dir: Path, noise: float | None, overwrite: bool, as_json: bool
 ) -> None:
-    """Write a procedural synthetic scene folder (DESIGN §9 layout).
+    """Write a procedural synthetic scene folder (layout: docs/formats.md).
 
-    The folder holds a 3DGS PLY with GT entity ids, COLMAP cameras, rendered images, noisy
+    The folder holds a 3DGS PLY with each Gaussian's GT instance (gt_instance), COLMAP cameras, rendered images, noisy
     masks, GT masks and labels under gt/, objects.json and queries.json with queries of all
     four reasoning levels. The same seed always writes the same bytes.
     """
@@ -107,10 +107,12 @@ def prepare_scannet_cmd(
     overwrite: bool,
     as_json: bool,
 ) -> None:
-    """Turn the ScanNet scene0000_00 folder SRC into a scene folder (DESIGN §9 layout).
+    """Turn a ScanNet scan folder SRC into a scene folder (layout: docs/formats.md).
 
-    SRC is ../shared/data/scannet_scene0000_00 (ScanNet v2: non-commercial research use,
-    never redistributed). One Gaussian per mesh vertex, walk-through and real-pose cameras,
+    SRC holds the scan's mesh vertices and instance labels (mmdet3d_votenet_format/), its
+    object table and utterances (language_gt/) and posed colour frames
+    (mmdet3d_posed_images/); ScanNet v2 is for non-commercial research use and is never
+    redistributed. One Gaussian per mesh vertex, walk-through and real-pose cameras,
     GT and noisy instance masks, objects.json, and queries.json from the Sr3D / Nr3D /
     ScanRefer utterances.
     """

@@ -35,7 +35,7 @@ def _open(db_url: str, *, create: bool = True) -> Any:
 def ingest_objects(
     file: Path, scene_id: str | None, if_exists: str, db_url: str, as_json: bool
 ) -> None:
-    """Store a scene graph built from already segmented objects (objects JSON, DESIGN §9)."""
+    """Store a scene graph built from already segmented objects (objects JSON: docs/formats.md)."""
     from causalsplat.objects import objects_graph
 
     # a bad file is refused before the store is opened: no store file is created for it
@@ -263,7 +263,10 @@ def _parse_binding(text: str) -> tuple[str, Any]:
 
 @cli.command("sparql")
 @click.argument("query", required=False)
-@click.option("--file", "query_file", type=click.Path(dir_okay=False, path_type=Path))
+@click.option(
+    "--file", "query_file", type=click.Path(dir_okay=False, path_type=Path),
+    help="Read the query from this UTF-8 text file instead of QUERY.",
+)  # fmt: skip
 @click.option("--scene", "scene_ids", multiple=True, help="Scene id (repeatable; default: all).")
 @click.option(
     "--scenes", "pattern", metavar="GLOB",
@@ -278,9 +281,20 @@ def _parse_binding(text: str) -> tuple[str, Any]:
     "--bind", "binds", multiple=True, metavar="NAME=VALUE",
     help="Bind a variable to a literal (numbers are typed as numbers).",
 )  # fmt: skip
-@click.option("--limit", type=click.IntRange(min=1), default=10_000, show_default=True)
-@click.option("--timeout", type=click.FloatRange(min=0.001), default=30.0, show_default=True)
-@click.option("--backend", type=click.Choice(["auto", "oxigraph", "rdflib"]), default="auto")
+@click.option(
+    "--limit", type=click.IntRange(min=1), default=10_000, show_default=True,
+    help="Most result rows; a query giving more fails (add LIMIT/OFFSET to page).",
+)  # fmt: skip
+@click.option(
+    "--timeout", type=click.FloatRange(min=0.001), default=30.0, show_default=True,
+    help="Seconds before the query is stopped (its worker killed, its memory freed).",
+)  # fmt: skip
+@click.option(
+    "--backend", type=click.Choice(["auto", "oxigraph", "rdflib"]), default="auto",
+    show_default=True,
+    help="SPARQL engine: Oxigraph (fast), rdflib (pure Python), or auto (Oxigraph when"
+    " installed).",
+)  # fmt: skip
 @click.option(
     "--format", "fmt", type=click.Choice(_SPARQL_FORMATS), default=None,
     help="W3C output: json, xml, csv, tsv (SELECT; json and xml for ASK); turtle, ntriples"
