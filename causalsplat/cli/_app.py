@@ -105,6 +105,27 @@ def json_option(func: F) -> F:
     )(func)
 
 
+def entity_line(
+    entity_id: int, category: str, external_id: str | None, width: int = 5, after: str = ""
+) -> str:
+    """One entity of a plain-text answer: id, category, the id it had in its input when it
+    has one (a built entity has none), then ``after``.
+
+    >>> entity_line(3, "sink", "12")
+    '      3  sink                     ext=12'
+    >>> entity_line(3, "sink", None)
+    '      3  sink'
+    >>> entity_line(3, "sink", None, after="(1.000, 2.000, 0.900)")
+    '      3  sink                     (1.000, 2.000, 0.900)'
+    """
+    cells = [f"  {entity_id:>{width}}  {category:<24}"]
+    if external_id is not None:
+        cells.append(f"ext={external_id}")
+    if after:
+        cells.append(after)
+    return " ".join(cells).rstrip()
+
+
 def echo_json(document: Any) -> None:
     click.echo(json.dumps(document, indent=2, ensure_ascii=False, sort_keys=False))
 

@@ -8,7 +8,7 @@ from typing import Any
 
 import click
 
-from causalsplat.cli._app import cli, db_option, echo_json, fail, json_option
+from causalsplat.cli._app import cli, db_option, echo_json, entity_line, fail, json_option
 from causalsplat.cli._scene_select import scene_choice, scene_options
 
 
@@ -62,7 +62,7 @@ def _describe_answer(answer: Any, ents: list[dict[str, Any]]) -> list[str]:
     if isinstance(answer, int):
         return [str(answer)]
     lines = [f"{len(ents)} entit{'y' if len(ents) == 1 else 'ies'}"]
-    lines += [f"  {e['id']:>6}  {e['category']:<24} ext={e['external_id']}" for e in ents]
+    lines += [entity_line(e["id"], e["category"], e["external_id"], 6) for e in ents]
     return lines
 
 

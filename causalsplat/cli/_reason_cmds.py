@@ -7,7 +7,7 @@ from typing import Any
 
 import click
 
-from causalsplat.cli._app import cli, db_option, echo_json, json_option
+from causalsplat.cli._app import cli, db_option, echo_json, entity_line, json_option
 from causalsplat.cli._scene_select import scene_choice, scene_options
 
 _REASONERS = ("offline", "vlm")
@@ -140,7 +140,7 @@ def ask(
     elif not entities:
         click.echo("no entity")
     for e in entities:
-        click.echo(f"  {e['id']:>5}  {e['category']:<24} ext={e['external_id']}")
+        click.echo(entity_line(e["id"], e["category"], e["external_id"]))
     if answer.candidates:
         click.echo("candidates (best first):")
         for rank, c in enumerate(answer.candidates, 1):
@@ -185,7 +185,7 @@ def _ask_many(
             head += f", answer {a.value}"
         click.echo(f"{head}, {len(a.entity_ids)} entit{'y' if len(a.entity_ids) == 1 else 'ies'}")
         for i, x, c in zip(a.entity_ids, a.external_ids, a.categories, strict=True):
-            click.echo(f"  {i:>5}  {c:<24} ext={x}")
+            click.echo(entity_line(i, c, x))
     click.echo(f"{len(answered)} of {len(answers)} scenes answered")
 
 

@@ -58,9 +58,10 @@ def synth_cmd(
 ) -> None:
     """Write a procedural synthetic scene folder (layout: docs/formats.md).
 
-    The folder holds a 3DGS PLY with each Gaussian's GT instance (gt_instance), COLMAP cameras, rendered images, noisy
-    masks, GT masks and labels under gt/, objects.json and queries.json with queries of all
-    four reasoning levels. The same seed always writes the same bytes.
+    The folder holds a 3DGS PLY with each Gaussian's GT instance (gt_instance), COLMAP
+    cameras, rendered images, noisy masks, GT masks and labels under gt/, objects.json and
+    queries.json with queries of all four reasoning levels. The same seed always writes the
+    same bytes.
     """
     from causalsplat.synth.write import synth_scene
 
@@ -126,5 +127,6 @@ def prepare_scannet_cmd(
         n_walk_views=walk_views,
         noise_strength=noise,
         overwrite=overwrite,
+        progress=lambda line: click.echo(line, err=True),
     )
     _print_summary(summary, as_json)

@@ -10,7 +10,7 @@ from typing import Any
 
 import click
 
-from causalsplat.cli._app import cli, db_option, echo_json, fail, json_option
+from causalsplat.cli._app import cli, db_option, echo_json, entity_line, fail, json_option
 
 
 def _open(db_url: str, *, create: bool = True) -> Any:
@@ -62,7 +62,7 @@ def ingest_objects(
     for e in graph.entities:
         cx, cy, cz = e.centroid
         click.echo(
-            f"  {e.id:>5}  {e.category:<24} ext={e.external_id}  ({cx:.3f}, {cy:.3f}, {cz:.3f})"
+            entity_line(e.id, e.category, e.external_id, after=f"({cx:.3f}, {cy:.3f}, {cz:.3f})")
         )
 
 
@@ -283,7 +283,7 @@ def _parse_binding(text: str) -> tuple[str, Any]:
 )  # fmt: skip
 @click.option(
     "--limit", type=click.IntRange(min=1), default=10_000, show_default=True,
-    help="Most result rows; a query giving more fails (add LIMIT/OFFSET to page).",
+    help="Most result rows; more are cut, with a note on stderr (page with LIMIT/OFFSET).",
 )  # fmt: skip
 @click.option(
     "--timeout", type=click.FloatRange(min=0.001), default=30.0, show_default=True,

@@ -17,6 +17,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
@@ -158,8 +159,10 @@ def prepare_scannet(
     seed: int = 0,
     overwrite: bool = False,
     scan_id: str = "scene0000_00",
+    progress: Callable[[str], None] | None = None,
 ) -> SceneSummary:
-    """Turn the ScanNet source folder ``src_dir`` into a scene folder at ``out_dir``."""
+    """Turn the ScanNet source folder ``src_dir`` into a scene folder at ``out_dir``;
+    ``progress`` is called with one line as each step starts."""
     config = ScanNetConfig(
         width=width,
         height=height,
@@ -168,12 +171,19 @@ def prepare_scannet(
         seed=seed,
     )
     check_output_dir(out_dir, overwrite=overwrite)
+    say = progress or (lambda _line: None)
+    say(f"reading {scan_id} from {src_dir}")
     source = load_scannet(src_dir, scan_id)
-    return write_scannet_scene(source, config, out_dir, overwrite=overwrite)
+    return write_scannet_scene(source, config, out_dir, overwrite=overwrite, progress=progress)
 
 
-def scannet_content(source: ScanNetSource, config: ScanNetConfig) -> SceneFolderContent:
+def scannet_content(
+    source: ScanNetSource,
+    config: ScanNetConfig,
+    progress: Callable[[str], None] | None = None,
+) -> SceneFolderContent:
     """Everything the scene folder of ``source`` holds under ``config`` (renders every view)."""
+    say = progress or (lambda _line: None)
     gaussians = gaussians_from_vertices(source.xyz, source.rgb, config)
     labels = source.instance.astype(np.int32)
     w, h = config.width, config.height
@@ -187,6 +197,7 @@ def scannet_content(source: ScanNetSource, config: ScanNetConfig) -> SceneFolder
     )
     real = real_cameras(source, w, h)
     cameras = walk + real
+    say(f"rendering {len(cameras)} views of {gaussians.n:,} Gaussians at {w}x{h}, with masks")
     views = render_masked_views(
         gaussians,
         labels,
@@ -196,6 +207,7 @@ def scannet_content(source: ScanNetSource, config: ScanNetConfig) -> SceneFolder
         noise=config.noise,
         seed=config.seed,
     )
+    say(f"checking the renders against {len(source.frames)} real photos")
     photos = tuple(load_photo(f.image, w, h) for f in source.frames)
     checks = check_photos(gaussians, real, photos, np.random.default_rng([config.seed, 7]))
     utterances = load_utterances(source)
@@ -223,10 +235,17 @@ def scannet_content(source: ScanNetSource, config: ScanNetConfig) -> SceneFolder
 
 
 def write_scannet_scene(
-    source: ScanNetSource, config: ScanNetConfig, out_dir: str | Path, *, overwrite: bool = False
+    source: ScanNetSource,
+    config: ScanNetConfig,
+    out_dir: str | Path,
+    *,
+    overwrite: bool = False,
+    progress: Callable[[str], None] | None = None,
 ) -> SceneSummary:
     """Build every view of ``source`` under ``config`` and write the scene folder."""
-    content = scannet_content(source, config)
+    content = scannet_content(source, config, progress)
+    if progress is not None:
+        progress(f"writing {out_dir}")
     path = write_scene_folder(out_dir, content, overwrite=overwrite)
     n_queries = len(content.queries["queries"])
     return SceneSummary(

@@ -48,7 +48,7 @@ def test_query_across_scenes_human_and_json(db: str, tmp_path: Path) -> None:
     assert proc.returncode == 0, proc.stderr
     lines = proc.stdout.splitlines()
     assert lines[0] == "hall: 2 entities"
-    assert lines[1].split() == ["3", "cup", "ext=None"]
+    assert lines[1].split() == ["3", "cup"]  # no input id: no "ext=None"
     assert "room_b" not in proc.stdout
     assert lines[-1] == "3 of 4 scenes answered"
     proc = run("query", str(program), "--scenes", "room_*", "--db", db, "--json")
