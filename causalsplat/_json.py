@@ -11,6 +11,13 @@ that a binary file, a truncated file or a document nested a hundred thousand lev
 Traceback (most recent call last):
     ...
 causalsplat._json.JSONInputError: not valid JSON: nested too deeply for Python's JSON reader
+>>> decode_json(b'{"a": 5, "a": 6}')
+Traceback (most recent call last):
+    ...
+causalsplat._json.JSONInputError: not valid JSON here: the key 'a' appears twice in one object
+
+A key given twice is refused rather than resolved (Python keeps the last, other readers the
+first): the file does not say which value it means.
 """
 
 from __future__ import annotations
@@ -34,8 +41,23 @@ def decode_json(data: bytes | str, *, parse_constant: Callable[[str], Any] | Non
                 f"not valid JSON: not UTF-8 text (byte {exc.start} is 0x{data[exc.start]:02x})"
             ) from None
     try:
-        return json.loads(data, parse_constant=parse_constant)
+        return json.loads(data, parse_constant=parse_constant, object_pairs_hook=_unique_keys)
     except json.JSONDecodeError as exc:
         raise JSONInputError(f"not valid JSON: {exc}") from None
     except RecursionError:
         raise JSONInputError("not valid JSON: nested too deeply for Python's JSON reader") from None
+    except ValueError as exc:  # an integer past Python's digit limit, or a repeated key
+        if isinstance(exc, JSONInputError):
+            raise
+        raise JSONInputError(f"not valid JSON here: {str(exc).split(';')[0]}") from None
+
+
+def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for key, value in pairs:
+        if key in out:
+            raise JSONInputError(
+                f"not valid JSON here: the key {key!r} appears twice in one object"
+            )
+        out[key] = value
+    return out

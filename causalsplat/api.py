@@ -513,12 +513,9 @@ def _write_atomic(path: Path, text: str) -> None:
     """Write a file so that a crash leaves either the old file or the new one."""
     if path.is_dir():
         raise IsADirectoryError(errno.EISDIR, "the output is a folder, give a file path", str(path))
-    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
-    try:
-        with tmp.open("w", encoding="utf-8", newline="\n") as handle:
-            handle.write(text)
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
+    from causalsplat._atomic import atomic_target
+
+    with atomic_target(path) as tmp, tmp.open("w", encoding="utf-8", newline="\n") as handle:
+        handle.write(text)
+        handle.flush()
+        os.fsync(handle.fileno())

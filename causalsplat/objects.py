@@ -116,6 +116,8 @@ def parse_objects(document: Any, *, source: str = "<objects>", sha256: str = "")
     raw_objects = document.get("objects")
     if not isinstance(raw_objects, list):
         raise where.error("objects", f"must be a list, got {_kind(raw_objects)}")
+    if not raw_objects:
+        raise where.error("objects", "is empty: a scene needs at least one object")
     objects = tuple(_parse_object(obj, where, f"objects[{i}]") for i, obj in enumerate(raw_objects))
     seen: dict[str, int] = {}
     for i, obj in enumerate(objects):

@@ -53,6 +53,7 @@ from graph_store.types import (
     SceneGraph,
     SceneMeta,
     View,
+    check_scene_id,
     trusted_entity,
     trusted_relation,
     trusted_scene_graph,
@@ -257,6 +258,7 @@ class GraphStore:
             raise ValueError(f"if_exists must be 'fail' or 'replace', got {if_exists!r}")
         if not isinstance(graph, SceneGraph):
             raise TypeError(f"save_scene expects a SceneGraph, got {type(graph).__name__}")
+        check_scene_id(graph.scene_id)
         encoded: EncodedLabels | None = None
         if gaussian_labels is not None:
             ids = [e.id for e in graph.entities]

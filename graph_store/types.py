@@ -14,6 +14,7 @@ Frames and units: coordinates are in the scene's world frame, in ``SceneMeta.uni
 from __future__ import annotations
 
 import math
+import unicodedata
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from datetime import datetime
@@ -139,6 +140,17 @@ def _check_name(value: object, what: str) -> str:
     text = check_text(value, what)
     if len(text) > MAX_NAME_LENGTH:
         raise InvalidSceneError(f"{what} is longer than {MAX_NAME_LENGTH} characters")
+    return text
+
+
+def check_scene_id(value: object) -> str:
+    """A scene id to store: a name (:func:`check_text`, bounded) without control
+    characters, since it is printed, written in file names and URLs, and typed back by
+    users. Checked when a scene is saved, so that a store written before still reads."""
+    text = _check_name(value, "scene id")
+    bad = next((c for c in text if unicodedata.category(c) == "Cc"), None)
+    if bad is not None:
+        raise InvalidSceneError(f"scene id {text!r} contains the control character {bad!r}")
     return text
 
 

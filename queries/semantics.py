@@ -64,6 +64,7 @@ from functools import lru_cache
 from typing import Generic, TypeVar
 
 from graph_store.types import RelationType
+from queries.errors import QueryValidationError
 
 N = TypeVar("N")  # a numeric expression
 B = TypeVar("B")  # a boolean expression
@@ -83,6 +84,18 @@ class QueryConfig:
     structural_categories: tuple[str, ...] = ("floor", "wall", "ceiling")
     between_lateral_ratio: float = 0.3
     affordance_key: str = "affordance"
+
+    def __post_init__(self) -> None:
+        ratio = self.between_lateral_ratio
+        if isinstance(ratio, bool) or not isinstance(ratio, int | float) or not 0 < ratio < 1e6:
+            raise QueryValidationError(
+                f"QueryConfig.between_lateral_ratio must be in (0, 1e6), got {ratio!r}"
+            )
+        key = self.affordance_key
+        if not isinstance(key, str) or not key.strip():
+            raise QueryValidationError(
+                f"QueryConfig.affordance_key must be a non-empty string, got {key!r}"
+            )
 
     def is_structural(self, category: str) -> bool:
         return normalise_text(category) in {normalise_text(c) for c in self.structural_categories}

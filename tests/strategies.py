@@ -20,6 +20,7 @@ from graph_store import (
 # Any Unicode except NUL and lone surrogates (which no database text column can hold).
 text_chars = st.characters(blacklist_categories=("Cs",), blacklist_characters="\x00")
 names = st.text(text_chars, min_size=1, max_size=24)
+scene_ids = st.text(st.characters(blacklist_categories=("Cs", "Cc")), min_size=1, max_size=24)
 coords = st.floats(min_value=-1e6, max_value=1e6, allow_nan=False, allow_infinity=False)
 
 
@@ -89,7 +90,7 @@ def scene_graphs(
                 )
             )  # fmt: skip
     meta = SceneMeta(
-        scene_id=scene_id or draw(names),
+        scene_id=scene_id or draw(scene_ids),
         name=draw(st.none() | st.text(text_chars, max_size=20)),
         units=draw(st.sampled_from(["m", "mm", "km"])),
         up_axis=draw(st.sampled_from(["x", "y", "z"])),

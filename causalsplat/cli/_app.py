@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import gc
 import json
+import math
 import os
 import sys
 from collections.abc import Callable
@@ -97,6 +98,31 @@ def db_option(func: F) -> F:
 def _store_url(_ctx: click.Context, _param: click.Parameter, value: str) -> str:
     """A plain file path given for --db names a SQLite file."""
     return str(as_url(value))
+
+
+class Seconds(click.ParamType):
+    """A duration in seconds: a finite number in [0.001, 86400] (a day); anything else is
+    one error line, as every bad input is."""
+
+    name = "seconds"
+    LOW, HIGH = 0.001, 86_400.0
+
+    def convert(
+        self, value: Any, param: click.Parameter | None, ctx: click.Context | None
+    ) -> float:
+        if isinstance(value, float):
+            return value  # a default
+        try:
+            seconds = float(value)
+        except (TypeError, ValueError):
+            seconds = math.nan
+        if not self.LOW <= seconds <= self.HIGH:  # NaN fails this too
+            what = param.opts[0] if param is not None and param.opts else "the duration"
+            fail(f"{what} must be in [{self.LOW:g}, {self.HIGH:g}] seconds, got {value!r}")
+        return seconds
+
+
+SECONDS = Seconds()
 
 
 def json_option(func: F) -> F:

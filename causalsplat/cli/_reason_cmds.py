@@ -7,7 +7,7 @@ from typing import Any
 
 import click
 
-from causalsplat.cli._app import cli, db_option, echo_json, entity_line, json_option
+from causalsplat.cli._app import SECONDS, cli, db_option, echo_json, entity_line, json_option
 from causalsplat.cli._scene_select import scene_choice, scene_options
 
 _REASONERS = ("offline", "vlm")
@@ -61,7 +61,7 @@ def _reasoner_options(func: Any) -> Any:
         ),
         click.option("--base-url", help="VLM server API root ($CAUSALSPLAT_VLM_BASE_URL)."),
         click.option("--model", help="VLM model name ($CAUSALSPLAT_VLM_MODEL)."),
-        click.option("--timeout", type=float, help="VLM reply timeout in seconds (60)."),
+        click.option("--timeout", type=SECONDS, help="VLM reply timeout in seconds (60)."),
         click.option(
             "--max-tokens",
             metavar="N",

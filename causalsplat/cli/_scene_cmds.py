@@ -35,7 +35,10 @@ def _print_summary(summary: object, as_json: bool) -> None:
     show_default=True,
     help="tiny (CI, seconds), small (demo), medium (benchmarks).",
 )
-@click.option("--seed", type=int, default=0, show_default=True, help="Random seed.")
+@click.option(
+    "--seed", type=click.IntRange(min=0), default=0, show_default=True,
+    help="Random seed (the same seed writes the same bytes).",
+)  # fmt: skip
 @click.option(
     "-o",
     "--output",
@@ -47,7 +50,7 @@ def _print_summary(summary: object, as_json: bool) -> None:
 @click.option(
     "--noise",
     "noise",
-    type=float,
+    type=click.FloatRange(min=0),
     default=None,
     help="Strength of the SAM-like mask noise (0 = exact GT masks; default 1).",
 )
@@ -91,7 +94,7 @@ def synth_cmd(
 )
 @click.option(
     "--noise",
-    type=float,
+    type=click.FloatRange(min=0),
     default=1.0,
     show_default=True,
     help="Strength of the SAM-like mask noise (0 = exact GT masks).",

@@ -8,7 +8,7 @@ from types import FrameType
 
 import click
 
-from causalsplat.cli._app import cli, db_option
+from causalsplat.cli._app import SECONDS, cli, db_option
 
 
 def _stop(signum: int, frame: FrameType | None) -> None:
@@ -30,7 +30,7 @@ def _stop(signum: int, frame: FrameType | None) -> None:
     help="The most rows a SPARQL answer holds (more are cut off).",
 )  # fmt: skip
 @click.option(
-    "--timeout", type=click.FloatRange(min=0.001), default=30.0, show_default=True,
+    "--timeout", type=SECONDS, default=30.0, show_default=True,
     help="Seconds a SPARQL query may run.",
 )  # fmt: skip
 @click.option("--quiet", is_flag=True, help="Do not log requests on stderr.")

@@ -10,7 +10,7 @@ from typing import Any
 
 import click
 
-from causalsplat.cli._app import cli, db_option, echo_json, entity_line, fail, json_option
+from causalsplat.cli._app import SECONDS, cli, db_option, echo_json, entity_line, fail, json_option
 
 
 def _open(db_url: str, *, create: bool = True) -> Any:
@@ -261,6 +261,15 @@ def _parse_binding(text: str) -> tuple[str, Any]:
     return name.lstrip("?$"), value
 
 
+def _query_text(path: Path) -> str:
+    data = path.read_bytes()
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        byte = data[exc.start]
+        fail(f"{path}: not a SPARQL query: not UTF-8 text (byte {exc.start} is 0x{byte:02x})")
+
+
 @cli.command("sparql")
 @click.argument("query", required=False)
 @click.option(
@@ -286,7 +295,7 @@ def _parse_binding(text: str) -> tuple[str, Any]:
     help="Most result rows; more are cut, with a note on stderr (page with LIMIT/OFFSET).",
 )  # fmt: skip
 @click.option(
-    "--timeout", type=click.FloatRange(min=0.001), default=30.0, show_default=True,
+    "--timeout", type=SECONDS, default=30.0, show_default=True,
     help="Seconds before the query is stopped (its worker killed, its memory freed).",
 )  # fmt: skip
 @click.option(
@@ -340,11 +349,15 @@ def sparql(
     fmt = {"nt": "ntriples"}.get(fmt or "", fmt)
     if as_json and fmt not in (None, "json", "jsonld"):
         fail(f"--json and --format {fmt} ask for two formats: give one")
-    text = query_file.read_text(encoding="utf-8") if query_file else query
+    text = _query_text(query_file) if query_file else query
     if text == "-":
         text = sys.stdin.read()
     assert text is not None
-    bindings = dict(_parse_binding(b) for b in binds)
+    bindings: dict[str, Any] = {}
+    for name, value in (_parse_binding(b) for b in binds):
+        if name in bindings:
+            fail(f"--bind {name} is given twice: bind each variable once")
+        bindings[name] = value
     with _open(db_url, create=False) as store:
         ids = list(scene_ids) or None
         for sid in ids or ():

@@ -135,6 +135,8 @@ def read_queries(path: str | Path) -> QueriesFile:
 def parse_queries(document: Any, *, source: str = "<queries>") -> QueriesFile:
     if not isinstance(document, dict) or not isinstance(document.get("queries"), list):
         raise QueriesFileError(f"{source}: expected an object with a 'queries' list")
+    if not document["queries"]:
+        raise QueriesFileError(f"{source}: the 'queries' list is empty: nothing to evaluate")
     scene_id = document.get("scene_id")
     if scene_id is not None and not isinstance(scene_id, str):
         raise QueriesFileError(f"{source}: scene_id must be a string, got {scene_id!r}")

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
 import re
 import shutil
 from collections.abc import Iterator
@@ -206,9 +205,7 @@ def _sha256(path: Path) -> str:
 @contextmanager
 def _atomic(path: Path) -> Iterator[Path]:
     """``with _atomic(path) as tmp``: write ``tmp``; it replaces ``path`` on success."""
-    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
-    try:
+    from causalsplat._atomic import atomic_target
+
+    with atomic_target(path) as tmp:
         yield tmp
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)

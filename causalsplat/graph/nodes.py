@@ -24,8 +24,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from causalsplat._checks import Interval, check_fields
 from causalsplat.colors import mean_color, names_of, rgb_to_hex
 from causalsplat.field.types import MaskEvidence
+from causalsplat.graph.errors import GraphBuildError
 from causalsplat.instances.assign import InstanceAssignment
 from causalsplat.io.types import Camera, GaussianScene
 from causalsplat.masks import MaskSet
@@ -50,6 +52,14 @@ class NodeConfig:
 
     bbox_quantile: float = 0.1
     min_votes_share: float = 0.05
+
+    def __post_init__(self) -> None:
+        check_fields(
+            "NodeConfig",
+            {"bbox_quantile": self.bbox_quantile, "min_votes_share": self.min_votes_share},
+            {"bbox_quantile": Interval(0, 0.5, high_open=True), "min_votes_share": Interval(0, 1)},
+            GraphBuildError,
+        )
 
 
 def build_entities(

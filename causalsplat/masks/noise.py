@@ -41,6 +41,10 @@ import numpy as np
 from causalsplat.errors import CausalSplatError
 from causalsplat.masks.types import MaskSet
 
+#: The largest noise strength: the rarest default effect (``p_drop`` 0.05) is certain at
+#: 20, so any more only scales the jitter past every mask.
+MAX_STRENGTH = 20.0
+
 
 class InvalidNoiseError(CausalSplatError, ValueError):
     """A noise strength or :class:`NoiseConfig` value is out of range."""
@@ -105,8 +109,10 @@ def perturb_masks(
         s = float(strength)
     except (TypeError, ValueError):
         s = math.nan
-    if not (math.isfinite(s) and s >= 0):
-        raise InvalidNoiseError(f"noise strength {strength!r} must be a finite number >= 0")
+    if not 0 <= s <= MAX_STRENGTH:
+        raise InvalidNoiseError(
+            f"noise strength must be in [0, {MAX_STRENGTH:g}], got {strength!r}"
+        )
     if s == 0:
         return maskset
     cfg = config or NoiseConfig()

@@ -31,6 +31,7 @@ from collections import defaultdict, deque
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
+from urllib.parse import urlsplit
 
 from causalsplat.openai_compat.errors import (
     ReplayMissError,
@@ -80,6 +81,8 @@ class VLMConfig:
 
     def __post_init__(self) -> None:
         check_max_tokens(self.max_tokens, "max_tokens")
+        if self.base_url is not None:
+            check_base_url(self.base_url)
 
     @classmethod
     def from_env(cls, **overrides: Any) -> VLMConfig:
@@ -98,6 +101,27 @@ class VLMConfig:
             api_key=os.environ.get(ENV_API_KEY) or None,
         )
         return replace(base, **overrides)
+
+
+def check_base_url(url: str) -> str:
+    """``url`` if it is an absolute http(s) URL with a host, else :class:`VLMConfigError`.
+
+    >>> check_base_url("http://127.0.0.1:8080/v1")
+    'http://127.0.0.1:8080/v1'
+    >>> try:
+    ...     check_base_url("::::")
+    ... except VLMConfigError as exc:
+    ...     print(exc)
+    the VLM base URL must be http(s)://HOST[:PORT]/PATH, got '::::'
+    """
+    try:
+        parts = urlsplit(url)
+        parts.port  # noqa: B018 - raises ValueError on a port out of range
+    except ValueError:
+        parts = None
+    if parts is None or parts.scheme not in ("http", "https") or not parts.hostname:
+        raise VLMConfigError(f"the VLM base URL must be http(s)://HOST[:PORT]/PATH, got {url!r}")
+    return url
 
 
 def check_max_tokens(value: object, source: str) -> int:
@@ -309,8 +333,11 @@ def _read_recording(path: Path) -> dict[str, deque[dict[str, Any]]]:
     out: dict[str, deque[dict[str, Any]]] = defaultdict(deque)
     try:
         lines = path.read_text(encoding="utf-8").splitlines()
-    except FileNotFoundError:
-        raise
+    except UnicodeDecodeError as exc:
+        byte = exc.object[exc.start]
+        raise VLMConfigError(
+            f"{path}: not a recording: not UTF-8 text (byte {exc.start} is 0x{byte:02x})"
+        ) from None
     for n, line in enumerate(lines, start=1):
         if not line.strip():
             continue

@@ -16,7 +16,6 @@
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass, field, fields
 from pathlib import Path
@@ -25,9 +24,11 @@ from typing import Any
 import numpy as np
 from scipy.spatial import cKDTree
 
+from causalsplat._checks import Interval, check_fields
 from causalsplat.errors import CausalSplatError
 from causalsplat.io.types import GaussianScene
 from causalsplat.masks import NoiseConfig
+from causalsplat.masks.noise import MAX_STRENGTH
 from causalsplat.scannet.cameras import real_cameras, walk_cameras
 from causalsplat.scannet.language import load_utterances
 from causalsplat.scannet.photo import PhotoCheck, check_photos, load_photo
@@ -75,10 +76,12 @@ class ScanNetConfig:
             )
         if self.n_walk_views < 0:
             raise ScanNetConfigError(f"ScanNetConfig.n_walk_views={self.n_walk_views} < 0")
-        if not (math.isfinite(self.noise_strength) and self.noise_strength >= 0):
-            raise ScanNetConfigError(
-                f"ScanNetConfig.noise_strength={self.noise_strength} must be finite and >= 0"
-            )
+        check_fields(
+            "ScanNetConfig",
+            {"noise_strength": self.noise_strength, "seed": self.seed},
+            {"noise_strength": Interval(0, MAX_STRENGTH), "seed": Interval(0, integer=True)},
+            ScanNetConfigError,
+        )
 
     def to_json(self) -> dict[str, Any]:
         out: dict[str, Any] = {}

@@ -73,9 +73,16 @@ class Request:
         return self.header("content-type").split(";", 1)[0].strip().lower()
 
     def json(self) -> Any:
-        """The body decoded as JSON; :class:`HttpError` 400 when it is not JSON."""
+        """The body decoded as JSON; :class:`HttpError` 415 unless it is sent as
+        ``application/json`` (a form or ``text/plain`` body is what a page of another
+        origin can send without asking first: refused, never run), 400 when it is not
+        JSON."""
         from causalsplat._json import JSONInputError, decode_json
 
+        if self.media_type != "application/json":
+            raise HttpError(
+                415, f"send the body as application/json, not {self.media_type or 'untyped'}"
+            )
         try:
             return decode_json(self.body)
         except JSONInputError as exc:

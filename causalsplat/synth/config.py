@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field, fields, replace
 from typing import Any
 
+from causalsplat._checks import Interval, check_fields
 from causalsplat.errors import CausalSplatError
-from causalsplat.masks.noise import NoiseConfig
+from causalsplat.masks.noise import MAX_STRENGTH, NoiseConfig
 
 #: Names of the size presets, smallest first.
 SIZES: tuple[str, ...] = ("tiny", "small", "medium")
@@ -81,10 +81,12 @@ class SynthConfig:
                 f"SynthConfig: room {self.room_size_m} x {self.wall_height_m} m is too small "
                 "(at least 2.5 m wide and 2 m high)"
             )
-        if not (math.isfinite(self.noise_strength) and self.noise_strength >= 0):
-            raise InvalidSynthConfigError(
-                f"SynthConfig.noise_strength={self.noise_strength} must be finite and >= 0"
-            )
+        check_fields(
+            "SynthConfig",
+            {"noise_strength": self.noise_strength, "seed": self.seed},
+            {"noise_strength": Interval(0, MAX_STRENGTH), "seed": Interval(0, integer=True)},
+            InvalidSynthConfigError,
+        )
         if not 10 <= self.fov_y_deg <= 120:
             raise InvalidSynthConfigError(f"SynthConfig.fov_y_deg={self.fov_y_deg}")
         if not 0 < self.normal_scale <= 1:

@@ -44,6 +44,43 @@ class CheckedQuery:
     prepared: Any
 
 
+#: The deepest nesting of ``{}``, ``()`` and ``[]`` read at all. rdflib's parser recurses
+#: per level and reaches Python's recursion limit first (at about 35 nested groups or 25
+#: nested parentheses: refused as nested too deeply); this bound refuses a pathological
+#: query before the parser starts on it.
+MAX_NESTING = 64
+
+
+def nesting(text: str) -> int:
+    """The deepest nesting of brackets in ``text``, outside string literals and comments.
+
+    >>> nesting('SELECT * WHERE { ?s ?p ?o FILTER (STR(?o) = "{{{") }  # {{')
+    3
+    """
+    depth = deepest = 0
+    i, n = 0, len(text)
+    while i < n:
+        c = text[i]
+        if c in "\"'":
+            quote = c * 3 if text.startswith(c * 3, i) else c
+            i += len(quote)
+            while i < n and not text.startswith(quote, i):
+                i += 2 if text[i] == "\\" else 1
+            i += len(quote)
+            continue
+        if c == "#":
+            end = text.find("\n", i)
+            i = n if end < 0 else end
+            continue
+        if c in "{([":
+            depth += 1
+            deepest = max(deepest, depth)
+        elif c in "})]":
+            depth -= 1
+        i += 1
+    return deepest
+
+
 @lru_cache(maxsize=256)
 def check_query(text: str) -> CheckedQuery:
     """Parse ``text`` as a read-only SPARQL query, or raise (see the module docstring)."""
@@ -53,11 +90,18 @@ def check_query(text: str) -> CheckedQuery:
 
     if not isinstance(text, str):
         raise SparqlSyntaxError(f"a SPARQL query must be a string, got {type(text).__name__}")
+    depth = nesting(text)
+    if depth > MAX_NESTING:
+        raise SparqlSyntaxError(
+            f"the query nests groups {depth} levels deep; at most {MAX_NESTING} are read"
+        )
     try:
         parsed = parseQuery(text)
     except ParseException as exc:
         _refuse_update(text)
         raise SparqlSyntaxError(f"SPARQL syntax error: {exc}") from None
+    except RecursionError:  # a nesting the bound above let through, in another form
+        raise SparqlSyntaxError("the query is nested too deeply to be read") from None
     body = parsed[1]
     if "datasetClause" in body:
         raise SparqlForbiddenError(

@@ -120,6 +120,10 @@ def write_scenes(
         with tmp.open("w", encoding="utf-8", newline="") as out:
             _write_to(items, out, fmt, evidence)
         os.replace(tmp, path)
+    except OSError as exc:  # name the file asked for, not the temporary
+        if exc.filename is not None and Path(exc.filename) == tmp:
+            raise type(exc)(exc.errno, exc.strerror, str(path)) from None
+        raise
     finally:
         tmp.unlink(missing_ok=True)
 

@@ -115,6 +115,7 @@ def test_query_runs_a_structured_program(base_url: str, executor: str) -> None:
         ("ask", b'{"question": "the sink", "reasoner": "oracle"}', 400, "oracle"),
         ("ask", b"not json", 400, "not valid JSON"),
         ("ask", b"[1]", 400, "JSON object"),
+        ("ask", b'{"question": "the sink", "k": 1' + b"0" * 5000 + b"}", 400, "4300 digits"),
         ("query", b'{"query_type": "nope", "steps": []}', 400, "query_type"),
         ("query", json.dumps({**TABLE_FALLS, "executor": "magic"}).encode(), 400, "magic"),
     ],
@@ -122,10 +123,23 @@ def test_query_runs_a_structured_program(base_url: str, executor: str) -> None:
 def test_bad_requests_are_400_with_one_line(
     base_url: str, path: str, body: bytes, status: int, words: str
 ) -> None:
-    reply = request(f"{base_url}/api/scenes/{KITCHEN}/{path}", method="POST", body=body)
+    reply = request(f"{base_url}/api/scenes/{KITCHEN}/{path}", method="POST", body=body,
+                    headers={"Content-Type": "application/json"})  # fmt: skip
     assert reply.status == status
     error = reply.json()["error"]
     assert words in error and "\n" not in error
+
+
+@pytest.mark.parametrize(
+    "content_type", ["text/plain", "application/x-www-form-urlencoded", "multipart/form-data", None]
+)
+def test_api_posts_take_json_bodies_only(base_url: str, content_type: str | None) -> None:
+    # the bodies a page of another origin may send without a preflight: refused, not run
+    headers = {} if content_type is None else {"Content-Type": content_type}
+    reply = request(f"{base_url}/api/scenes/{KITCHEN}/ask", method="POST",
+                    body=b'{"question": "the sink"}', headers=headers)  # fmt: skip
+    assert reply.status == 415
+    assert "application/json" in reply.json()["error"]
 
 
 def test_unknown_scene_path_and_method(base_url: str) -> None:
