@@ -95,6 +95,11 @@ class Store:
     def close(self) -> None:
         self.graph_store.close()
 
+    def backup(self, path: str | Path) -> Path:
+        """Copy this SQLite store into the new file ``path`` while it may be in use
+        (SQLite's online backup); see :meth:`graph_store.GraphStore.backup`."""
+        return self.graph_store.backup(path)
+
     # -- scenes ------------------------------------------------------------------------
 
     def scenes(self) -> list[SceneSummary]:

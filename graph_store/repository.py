@@ -13,12 +13,15 @@ database intact and no partial scene visible.
 
 from __future__ import annotations
 
+import errno
 import json
 import os
+import sqlite3
 from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from datetime import UTC, datetime
+from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
@@ -224,6 +227,50 @@ class GraphStore:
             conn.begin(),
         ):
             yield conn
+        self._checkpoint()
+
+    def _checkpoint(self) -> None:
+        """After a committed write to SQLite, copy the write-ahead log into the database
+        file (a passive checkpoint: it waits for no reader), so that the ``.db`` file alone
+        holds every committed scene, even while another process (``serve``) has the store
+        open. What a reader still needs stays in the log until the next write."""
+        if self.dialect != "sqlite":
+            return
+        with self._wrap_errors(), self.engine.connect() as conn:
+            conn.exec_driver_sql("PRAGMA wal_checkpoint(PASSIVE)")
+
+    def backup(self, path: str | os.PathLike[str]) -> Path:
+        """Copy a SQLite store, consistently even while others read or write it, into the
+        new file ``path`` (SQLite's online backup), and return its path. The copy is a
+        store on its own (no write-ahead log beside it). Raises :class:`StoreConnectionError`
+        for a PostgreSQL store (use ``pg_dump``) and :class:`FileExistsError` when ``path``
+        exists."""
+        if self.dialect != "sqlite":
+            raise StoreConnectionError(
+                f"backup copies SQLite stores; for {self.url} use PostgreSQL's pg_dump"
+            )
+        target = Path(path)
+        if target.exists():
+            raise FileExistsError(errno.EEXIST, "the backup target exists", str(target))
+        if not target.parent.is_dir():
+            raise FileNotFoundError(errno.ENOENT, "no such directory", str(target.parent))
+        tmp = target.with_name(f".{target.name}.tmp{os.getpid()}")
+        try:
+            with self._wrap_errors():
+                raw = self._reader().raw_connection()
+                try:
+                    copy = sqlite3.connect(tmp)
+                    try:
+                        raw.driver_connection.backup(copy)  # type: ignore[union-attr]
+                        copy.execute("PRAGMA journal_mode=DELETE")
+                    finally:
+                        copy.close()
+                finally:
+                    raw.close()
+            os.link(tmp, target)  # fails, without replacing, when the target appeared meanwhile
+        finally:
+            tmp.unlink(missing_ok=True)
+        return target
 
     @contextmanager
     def _wrap_errors(self) -> Iterator[None]:

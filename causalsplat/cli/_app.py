@@ -26,6 +26,7 @@ def _user_errors() -> tuple[type[BaseException], ...]:
         CausalSplatError,
         GraphStoreError,
         FileNotFoundError,
+        FileExistsError,
         IsADirectoryError,
         PermissionError,
     ]

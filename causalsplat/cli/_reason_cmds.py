@@ -78,6 +78,12 @@ def _reasoner_options(func: Any) -> Any:
             type=click.Path(exists=True, dir_okay=False, path_type=Path),
             help="Answer VLM requests from this JSONL recording (no network).",
         ),
+        click.option(
+            "--allow-fallback",
+            is_flag=True,
+            help="Exit 0 when the VLM could not answer and the offline reasoner did (by"
+            " default the answer is printed, stderr says why, and the exit status is 3).",
+        ),
         db_option,
         json_option,
     ]
@@ -103,6 +109,7 @@ def ask(
     max_tokens: str | None,
     record: Path | None,
     replay: Path | None,
+    allow_fallback: bool,
     db_url: str,
     as_json: bool,
 ) -> None:
@@ -121,7 +128,8 @@ def ask(
     choice = scene_choice(scene_id, scenes_glob, all_scenes)
     options = _options(reasoner, embeddings, base_url, model, timeout, max_tokens, record, replay)
     if choice.many:
-        _ask_many(text, choice.selection, reasoner, options, db_url, as_json)
+        answers = _ask_many(text, choice.selection, reasoner, options, db_url, as_json)
+        _fell_back([a.fallback for a in answers], allow_fallback, ("instruction", "scenes"))
         return
     assert scene_id is not None
     with open_store(db_url, create=False) as store:
@@ -130,7 +138,12 @@ def ask(
         entities = entity_documents(answer, {e.id: e for e in scene.entities})
     if as_json:
         echo_json(answer.to_dict(entities=entities))
-        return
+    else:
+        _print_answer(answer, entities)
+    _fell_back([answer.fallback], allow_fallback, ("instruction", "instructions"))
+
+
+def _print_answer(answer: Any, entities: list[dict[str, Any]]) -> None:
     how = answer.reasoner + (f" (fallback from {answer.requested})" if answer.fell_back else "")
     click.echo(f"{answer.query_type} query, answered by {how}")
     if answer.value is not None:
@@ -160,8 +173,9 @@ def _ask_many(
     options: dict[str, Any],
     db_url: str,
     as_json: bool,
-) -> None:
-    """``ask`` over many scenes: every answer with --json, else the non-empty ones."""
+) -> list[Any]:
+    """``ask`` over many scenes: every answer with --json, else the non-empty ones; the
+    answers."""
     from causalsplat.api import open_store
 
     with open_store(db_url, create=False) as store:
@@ -178,7 +192,7 @@ def _ask_many(
         echo_json(
             {"query": text, "scenes": len(answers), "answered": len(answered), "results": results}
         )
-        return
+        return list(answers.values())
     for a in answered:
         head = f"{a.scene_id}: {a.query_type}"
         if a.value is not None:
@@ -187,6 +201,30 @@ def _ask_many(
         for i, x, c in zip(a.entity_ids, a.external_ids, a.categories, strict=True):
             click.echo(entity_line(i, c, x))
     click.echo(f"{len(answered)} of {len(answers)} scenes answered")
+    return list(answers.values())
+
+
+#: Exit status of ``ask`` and ``eval`` when the requested reasoner could not answer and the
+#: offline one did (without --allow-fallback): the output is complete, but not what was
+#: asked for.
+FELL_BACK_EXIT = 3
+
+
+def _fell_back(fallbacks: list[str | None], allowed: bool, what: tuple[str, str]) -> None:
+    """Say on stderr when the requested reasoner could not answer, and exit with
+    :data:`FELL_BACK_EXIT` unless that was allowed."""
+    why = [f for f in fallbacks if f is not None]
+    if not why:
+        return
+    n = len(fallbacks)
+    count = f"{len(why)} of {n} {what[1]} were" if n > 1 else f"the {what[0]} was"
+    click.echo(
+        f"causalsplat: the VLM could not answer ({why[0]}): {count} answered by the offline"
+        " reasoner" + ("" if allowed else "; pass --allow-fallback to accept that"),
+        err=True,
+    )
+    if not allowed:
+        raise SystemExit(FELL_BACK_EXIT)
 
 
 @cli.command("eval")
@@ -211,6 +249,7 @@ def evaluate(
     max_tokens: str | None,
     record: Path | None,
     replay: Path | None,
+    allow_fallback: bool,
     db_url: str,
     as_json: bool,
 ) -> None:
@@ -228,7 +267,12 @@ def evaluate(
         )
     if as_json:
         echo_json(report.to_dict())
-        return
+    else:
+        _print_report(report)
+    _fell_back([o.fallback for o in report.per_query], allow_fallback, ("query", "queries"))
+
+
+def _print_report(report: Any) -> None:
     click.echo(
         f"scene {report.scene_id}, reasoner {report.reasoner}, IoU on {report.iou_basis}:"
         f" {report.n} queries, accuracy {report.accuracy:.3f}, mIoU {report.miou:.3f}"

@@ -383,7 +383,23 @@ def sparql(
 
 @cli.group("db")
 def db() -> None:
-    """Manage the store schema (Alembic migrations)."""
+    """Manage the store: schema migrations (Alembic) and backups."""
+
+
+@db.command("backup")
+@click.argument("output", type=click.Path(dir_okay=False, path_type=Path))
+@db_option
+@json_option
+def db_backup(output: Path, db_url: str, as_json: bool) -> None:
+    """Copy a SQLite store into the new file OUTPUT, consistently even while it is in use
+    (serve, a build): SQLite's online backup. The copy is a store on its own."""
+    with _open(db_url, create=False) as store:
+        path = store.backup(output)
+        counts = len(store.scenes())
+    if as_json:
+        echo_json({"backup": str(path), "scenes": counts})
+    else:
+        click.echo(f"backed up {counts} scene(s) to {path}")
 
 
 @db.command("upgrade")

@@ -4,9 +4,17 @@ Any server that speaks the chat-completions API works (vLLM, SGLang, Ollama, lla
 LM Studio, hosted APIs): :class:`VLMConfig` names its base URL, the model and the key,
 from arguments or the environment (``CAUSALSPLAT_VLM_BASE_URL``, ``CAUSALSPLAT_VLM_MODEL``,
 ``CAUSALSPLAT_VLM_API_KEY``, and a reply's token budget ``CAUSALSPLAT_VLM_MAX_TOKENS``).
-Requests go through the ``openai`` package (the ``vlm`` extra) with no automatic retries
-and a timeout; every failure becomes a typed
-:class:`~causalsplat.openai_compat.errors.VLMError`.
+Requests go through the ``openai`` package (the ``vlm`` extra) with a timeout; every
+failure becomes a typed :class:`~causalsplat.openai_compat.errors.VLMError`:
+
+- a busy server (HTTP 429 or 503) is asked again after the wait its ``Retry-After`` header
+  gives, else 0.5 s doubling, at most :data:`RETRIES` times and never longer than
+  :data:`MAX_WAIT_S` per wait; other HTTP errors are not retried;
+- a 400 that refuses ``max_tokens`` in favour of ``max_completion_tokens`` (OpenAI's newer
+  reasoning models), or refuses a temperature, is sent again that way once, and the client
+  keeps sending it so;
+- a refusal (``message.refusal``) is :class:`~causalsplat.openai_compat.errors.VLMRefusalError`;
+  a body that is an HTML page or not JSON says so.
 
 Record and replay: with ``record=PATH`` every exchange is appended to a JSONL file, one
 object per line, ``{"key", "request", "reply"}`` or ``{"key", "request", "error"}``, where
@@ -26,9 +34,13 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import os
+import time
 from collections import defaultdict, deque
 from dataclasses import dataclass, replace
+from datetime import datetime
+from email.utils import parsedate_to_datetime
 from pathlib import Path
 from typing import Any
 from urllib.parse import urlsplit
@@ -37,6 +49,7 @@ from causalsplat.openai_compat.errors import (
     ReplayMissError,
     VLMConfigError,
     VLMError,
+    VLMRefusalError,
     VLMReplyError,
     VLMTimeoutError,
     VLMTransportError,
@@ -206,6 +219,8 @@ class ChatClient:
         self.record_path = Path(record) if record is not None else None
         self._replay: dict[str, deque[dict[str, Any]]] | None = None
         self._openai: Any = None
+        self._renamed_budget = False  # the server takes max_completion_tokens
+        self._no_temperature = False  # the model takes only its default temperature
         if replay is not None:
             self._replay = _read_recording(Path(replay))
             return
@@ -275,30 +290,65 @@ class ChatClient:
         return reply
 
     def _call(self, request: dict[str, Any]) -> ChatReply:
+        """One exchange (module docstring): busy answers (429, 503) are retried after the
+        wait the server asks for (``Retry-After``) or a doubling one, at most
+        :data:`RETRIES` times; a request parameter the model refuses is adapted once."""
         openai = __import__("openai")
-        try:
-            response = self._openai.chat.completions.create(**request)
-        except openai.APITimeoutError as exc:
-            raise VLMTimeoutError(
-                f"the VLM server at {self.config.base_url} did not answer within"
-                f" {self.config.timeout_s:g} s"
-            ) from exc
-        except openai.APIStatusError as exc:
-            raise VLMTransportError(
-                f"the VLM server at {self.config.base_url} answered HTTP {exc.status_code}:"
-                f" {str(exc)[:200]}",
-                status=exc.status_code,
-            ) from exc
-        except openai.APIError as exc:  # connection errors and malformed responses
-            raise VLMTransportError(
-                f"the VLM server at {self.config.base_url} failed: {exc}"
-            ) from exc
-        choices = getattr(response, "choices", None) or []
-        if not choices:
-            raise VLMReplyError("the VLM server answered with no choices", reason="empty")
-        choice = choices[0]
-        content = getattr(choice.message, "content", None) or ""
-        return ChatReply(content, choice.finish_reason, getattr(response, "model", None))
+        where = f"the VLM server at {self.config.base_url}"
+        attempt = 0
+        while True:
+            try:
+                response = self._openai.chat.completions.create(**self._adapted(request))
+            except openai.APITimeoutError as exc:
+                raise VLMTimeoutError(
+                    f"{where} did not answer within {self.config.timeout_s:g} s"
+                ) from exc
+            except openai.APIStatusError as exc:
+                code = exc.status_code
+                if code in BUSY_STATUSES and attempt < RETRIES:
+                    wait = retry_wait(exc.response.headers.get("retry-after"), attempt)
+                    if wait is not None:
+                        time.sleep(wait)
+                        attempt += 1
+                        continue
+                if code == 400 and self._adapt(exc):
+                    continue
+                busy = f" (still busy after {attempt} retries)" if code in BUSY_STATUSES else ""
+                raise VLMTransportError(
+                    f"{where} answered HTTP {code}{busy}: {_body_text(exc)[:200]}", status=code
+                ) from exc
+            except openai.APIResponseValidationError as exc:
+                raise VLMReplyError(
+                    f"{where} answered with a body that is not a chat completion: {exc}"[:300],
+                    reason="not_completion",
+                ) from exc
+            except openai.APIError as exc:  # connection errors
+                raise VLMTransportError(f"{where} failed: {exc}") from exc
+            return _reply(response, where)
+
+    def _adapted(self, request: dict[str, Any]) -> dict[str, Any]:
+        """The request as this server takes it (see :meth:`_adapt`)."""
+        if not self._renamed_budget and not self._no_temperature:
+            return request
+        out = dict(request)
+        if self._renamed_budget and "max_tokens" in out:
+            out["max_completion_tokens"] = out.pop("max_tokens")
+        if self._no_temperature:
+            out.pop("temperature", None)
+        return out
+
+    def _adapt(self, exc: Any) -> bool:
+        """Whether a 400 refused a parameter that can be sent otherwise, and it now is:
+        newer OpenAI models take ``max_completion_tokens`` instead of ``max_tokens``, and
+        some only their default temperature."""
+        text = _body_text(exc)
+        if "max_completion_tokens" in text and "max_tokens" in text and not self._renamed_budget:
+            self._renamed_budget = True
+            return True
+        if "temperature" in text and not self._no_temperature:
+            self._no_temperature = True
+            return True
+        return False
 
     def _record(
         self,
@@ -327,6 +377,68 @@ class ChatClient:
         line = json.dumps(entry, sort_keys=True, ensure_ascii=False)
         with self.record_path.open("a", encoding="utf-8") as handle:
             handle.write(line + "\n")
+
+
+#: HTTP statuses of a server that is busy, not broken: retried.
+BUSY_STATUSES = frozenset({429, 503})
+#: Retries of a busy server, and the longest wait honoured (a server asking for longer is
+#: reported, not waited for).
+RETRIES = 3
+MAX_WAIT_S = 30.0
+
+
+def retry_wait(retry_after: str | None, attempt: int) -> float | None:
+    """Seconds to wait before retry ``attempt`` (0-based): what ``Retry-After`` asks for
+    (seconds or an HTTP date), else 0.5 s doubling; ``None`` when the server asks for more
+    than :data:`MAX_WAIT_S`.
+
+    >>> retry_wait("2", 0), retry_wait(None, 0), retry_wait(None, 2), retry_wait("3600", 0)
+    (2.0, 0.5, 2.0, None)
+    """
+    wait: float | None = None
+    if retry_after:
+        try:
+            wait = float(retry_after)
+        except ValueError:
+            try:
+                when = parsedate_to_datetime(retry_after)
+                wait = (when - datetime.now(when.tzinfo)).total_seconds()
+            except (TypeError, ValueError):
+                wait = None
+    if wait is None or not math.isfinite(wait):
+        wait = 0.5 * 2**attempt
+    wait = max(0.0, wait)
+    return None if wait > MAX_WAIT_S else wait
+
+
+def _body_text(exc: Any) -> str:
+    """An HTTP error's body as text (OpenAI's error message when it is one)."""
+    body = getattr(exc, "body", None)
+    if isinstance(body, dict):
+        message = body.get("message") or (body.get("error") or {}).get("message")
+        if message:
+            return str(message)
+    response = getattr(exc, "response", None)
+    text = getattr(response, "text", None)
+    return str(text if text else exc)
+
+
+def _reply(response: Any, where: str) -> ChatReply:
+    """The first choice of a chat completion, or the typed error saying what came instead:
+    a body that is not JSON (an HTML page), no choices, or a refusal."""
+    if isinstance(response, str | bytes):
+        text = response.decode("utf-8", "replace") if isinstance(response, bytes) else response
+        kind = "an HTML page" if text.lstrip()[:1] == "<" else "not JSON"
+        raise VLMReplyError(f"{where} answered with {kind}: {text.strip()[:120]!r}", reason="json")
+    choices = getattr(response, "choices", None) or []
+    if not choices:
+        raise VLMReplyError(f"{where} answered with no choices", reason="empty")
+    choice = choices[0]
+    refusal = getattr(choice.message, "refusal", None)
+    if refusal:
+        raise VLMRefusalError(str(refusal))
+    content = getattr(choice.message, "content", None) or ""
+    return ChatReply(content, choice.finish_reason, getattr(response, "model", None))
 
 
 def _read_recording(path: Path) -> dict[str, deque[dict[str, Any]]]:

@@ -46,6 +46,15 @@ class VLMReplyError(VLMError):
         return out
 
 
+class VLMRefusalError(VLMReplyError):
+    """The model refused to answer (OpenAI's ``message.refusal``): asking again the same
+    way would not help, so it is not retried."""
+
+    def __init__(self, refusal: str) -> None:
+        super().__init__(f"the model refused: {refusal}", reason="refusal")
+        self.refusal = refusal
+
+
 class VLMTruncatedError(VLMReplyError):
     """The reply was cut off by its token budget (``finish_reason == "length"``).
 

@@ -386,19 +386,22 @@ def test_max_tokens_reaches_the_request(
         server.script.extend([Reply("not json"), Reply("still not json")])
         ask = ["ask", "the table", *vlm_args(tiny_store, server)]
         result = runner.invoke(cli, [*ask, "--max-tokens", "77"])
-        assert result.exit_code == 0, result.output
+        assert result.exit_code == 3, result.output  # answered, but not by the VLM
         assert json.loads(result.stdout)["fallback"]  # answered offline, and says so
+        assert "pass --allow-fallback" in result.stderr
         assert [b["max_tokens"] for b in server.bodies()] == [77, 77]  # not cut off: same
         no_vlm_env.setenv("CAUSALSPLAT_VLM_MAX_TOKENS", "99")
+        ask.append("--allow-fallback")
         assert runner.invoke(cli, ask).exit_code == 0
         assert runner.invoke(cli, [*ask, "--max-tokens", "55"]).exit_code == 0
-        # 503 (empty script): no retry, one request per instruction.
+        # 500 (empty script): not retried, one request per instruction.
         assert [b["max_tokens"] for b in server.bodies()[2:]] == [99, 55]
         server.requests.clear()
         queries = str(tiny_dir / "queries.json")
         result = runner.invoke(cli, ["eval", queries, *vlm_args(tiny_store, server),
                                      "--max-tokens", "640"])  # fmt: skip
-        assert result.exit_code == 0, result.output
+        assert result.exit_code == 3, result.output  # every query fell back: said, not hidden
+        assert "queries were answered by the offline reasoner" in result.stderr
         assert server.requests and {b["max_tokens"] for b in server.bodies()} == {640}
 
 

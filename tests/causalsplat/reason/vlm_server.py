@@ -1,7 +1,8 @@
 """A scripted OpenAI-compatible chat-completions server on loopback, for the VLM tests.
 
 It speaks the real HTTP API (``POST /v1/chat/completions``) and answers each request with
-the next scripted action: a reply, an HTTP status, or a delay before replying (to make the
+the next scripted action: a reply, an HTTP status (with a Retry-After), a refusal, a body
+that is no chat completion (an HTML page), or a delay before replying (to make the
 client time out). Requests are kept for inspection. It reproduces what real servers do:
 
 * **Token budget**: a reply longer than the request's ``max_tokens`` is cut there and comes
@@ -23,7 +24,7 @@ client time out). Requests are kept for inspection. It reproduces what real serv
 Run as a program it serves on its own (``.ci/wheel-check`` asks an installed wheel's CLI
 through it): ``python tests/causalsplat/reason/vlm_server.py --reply FILE [--times N]
 [--requests FILE]`` prints its base URL as the first line on stdout, answers the first
-``N`` requests (default 1) with the content of ``--reply`` and later ones with HTTP 503,
+``N`` requests (default 1) with the content of ``--reply`` and later ones with HTTP 500,
 and on SIGTERM or SIGINT stops and writes the requests it received to ``--requests``
 (a JSON list of ``{"path", "body"}``).
 """
@@ -53,6 +54,23 @@ class Reply:
 @dataclass(frozen=True)
 class Status:
     code: int
+    retry_after: str | None = None  # the Retry-After header, when given
+
+
+@dataclass(frozen=True)
+class Raw:
+    """A body that is not a chat completion (an HTML error page from a proxy...)."""
+
+    body: bytes
+    content_type: str = "text/html"
+    code: int = 200
+
+
+@dataclass(frozen=True)
+class Refusal:
+    """The model refuses (OpenAI's ``message.refusal``, content null)."""
+
+    text: str
 
 
 @dataclass(frozen=True)
@@ -221,10 +239,17 @@ def _strict_refusal(body: dict[str, Any]) -> str | None:
 class ScriptedServer:
     """The server (module docstring); ``strict``: refuse strict schemas OpenAI refuses."""
 
-    def __init__(self, *, strict: bool = True) -> None:
-        self.script: deque[Reply | Status | Counting | Filling] = deque()
+    def __init__(
+        self, *, strict: bool = True, budget_param: str = "max_tokens", temperature: bool = True
+    ) -> None:
+        """``budget_param``: the token budget parameter the model takes (OpenAI's reasoning
+        models refuse ``max_tokens`` and take ``max_completion_tokens``); ``temperature``:
+        whether it takes a temperature other than its default (they do not)."""
+        self.script: deque[Reply | Status | Counting | Filling | Raw | Refusal] = deque()
         self.requests: list[dict[str, Any]] = []
         self.strict = strict
+        self.budget_param = budget_param
+        self.temperature = temperature
         server = self
 
         class Handler(BaseHTTPRequestHandler):
@@ -245,9 +270,25 @@ class ScriptedServer:
                     }
                     self._send(400, {"error": error})
                     return
-                action = server.script.popleft() if server.script else Status(503)
+                unsupported = _unsupported(body, server.budget_param, server.temperature)
+                if unsupported is not None:
+                    self._send(400, {"error": unsupported})
+                    return
+                action = server.script.popleft() if server.script else Status(500)
                 if isinstance(action, Status):
-                    self._send(action.code, {"error": {"message": "scripted failure"}})
+                    extra = (
+                        {} if action.retry_after is None else {"Retry-After": action.retry_after}
+                    )
+                    self._send(action.code, {"error": {"message": "scripted failure"}}, extra)
+                    return
+                if isinstance(action, Raw):
+                    self._send_bytes(action.code, action.body, action.content_type)
+                    return
+                if isinstance(action, Refusal):
+                    document = _completion(body, "", "stop")
+                    message = document["choices"][0]["message"]
+                    message["content"], message["refusal"] = None, action.text
+                    self._send(200, document)
                     return
                 if isinstance(action, Counting):
                     action = Reply(counting_content(action, body))
@@ -255,17 +296,27 @@ class ScriptedServer:
                     action = Reply(filling_content(body))
                 if action.delay_s:
                     time.sleep(action.delay_s)
-                content, cut = cut_to_budget(action.content, body.get("max_tokens"))
+                budget = body.get("max_tokens", body.get("max_completion_tokens"))
+                content, cut = cut_to_budget(action.content, budget)
                 finish = "length" if cut else action.finish_reason
                 server.requests[-1]["finish_reason"] = finish
                 self._send(200, _completion(body, content, finish))
 
-            def _send(self, code: int, document: dict[str, Any]) -> None:
-                data = json.dumps(document).encode()
+            def _send(
+                self, code: int, document: dict[str, Any], headers: dict[str, str] | None = None
+            ) -> None:
+                self._send_bytes(code, json.dumps(document).encode(), "application/json", headers)
+
+            def _send_bytes(
+                self, code: int, data: bytes, content_type: str,
+                headers: dict[str, str] | None = None,
+            ) -> None:  # fmt: skip
                 try:
                     self.send_response(code)
-                    self.send_header("Content-Type", "application/json")
+                    self.send_header("Content-Type", content_type)
                     self.send_header("Content-Length", str(len(data)))
+                    for name, value in (headers or {}).items():
+                        self.send_header(name, value)
                     self.end_headers()
                     self.wfile.write(data)
                 except (BrokenPipeError, ConnectionResetError):
@@ -293,6 +344,25 @@ class ScriptedServer:
         self.httpd.server_close()
 
 
+def _unsupported(
+    body: dict[str, Any], budget_param: str, temperature: bool
+) -> dict[str, Any] | None:
+    """OpenAI's 400 error for a parameter a reasoning model refuses, or ``None``."""
+    if budget_param == "max_completion_tokens" and "max_tokens" in body:
+        return {
+            "message": "Unsupported parameter: 'max_tokens' is not supported with this model."
+            " Use 'max_completion_tokens' instead.",
+            "type": "invalid_request_error", "param": "max_tokens", "code": "unsupported_parameter",
+        }  # fmt: skip
+    if not temperature and body.get("temperature", 1) != 1:
+        return {
+            "message": f"Unsupported value: 'temperature' does not support"
+            f" {body['temperature']} with this model. Only the default (1) value is supported.",
+            "type": "invalid_request_error", "param": "temperature", "code": "unsupported_value",
+        }  # fmt: skip
+    return None
+
+
 def _completion(body: dict[str, Any], content: str, finish_reason: str) -> dict[str, Any]:
     used = count_tokens(content)
     return {
@@ -315,7 +385,7 @@ def main(argv: list[str] | None = None) -> None:
     """Serve scripted replies until SIGTERM or SIGINT (module docstring)."""
     parser = argparse.ArgumentParser(description="A scripted OpenAI-compatible server.")
     parser.add_argument("--reply", required=True, help="file whose text is every reply")
-    parser.add_argument("--times", type=int, default=1, help="requests to answer (then 503)")
+    parser.add_argument("--times", type=int, default=1, help="requests to answer (then 500)")
     parser.add_argument("--requests", help="JSON file for the requests received, on exit")
     args = parser.parse_args(argv)
     with open(args.reply, encoding="utf-8") as f:
