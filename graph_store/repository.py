@@ -96,7 +96,8 @@ def open_store(
     or the file is not a database, and :class:`SchemaVersionError` when its schema needs a
     migration.
     """
-    url = as_url(url)
+    given = as_url(url)
+    url = given if isinstance(given, str) else given.render_as_string(hide_password=False)
     if not create:
         missing = missing_sqlite_file(url)
         if missing is not None:

@@ -36,7 +36,7 @@ def _print_summary(summary: object, as_json: bool) -> None:
     help="tiny (CI, seconds), small (demo), medium (benchmarks).",
 )
 @click.option(
-    "--seed", type=click.IntRange(min=0), default=0, show_default=True,
+    "--seed", type=int, default=0, show_default=True,
     help="Random seed (the same seed writes the same bytes).",
 )  # fmt: skip
 @click.option(
@@ -50,7 +50,7 @@ def _print_summary(summary: object, as_json: bool) -> None:
 @click.option(
     "--noise",
     "noise",
-    type=click.FloatRange(min=0),
+    type=float,
     default=None,
     help="Strength of the SAM-like mask noise (0 = exact GT masks; default 1).",
 )
@@ -94,7 +94,7 @@ def synth_cmd(
 )
 @click.option(
     "--noise",
-    type=click.FloatRange(min=0),
+    type=float,
     default=1.0,
     show_default=True,
     help="Strength of the SAM-like mask noise (0 = exact GT masks).",

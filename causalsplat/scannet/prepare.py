@@ -174,8 +174,6 @@ def prepare_scannet(
         seed=seed,
     )
     check_output_dir(out_dir, overwrite=overwrite)
-    say = progress or (lambda _line: None)
-    say(f"reading {scan_id} from {src_dir}")
     source = load_scannet(src_dir, scan_id)
     return write_scannet_scene(source, config, out_dir, overwrite=overwrite, progress=progress)
 
@@ -187,6 +185,7 @@ def scannet_content(
 ) -> SceneFolderContent:
     """Everything the scene folder of ``source`` holds under ``config`` (renders every view)."""
     say = progress or (lambda _line: None)
+    say(f"{source.scan_id}: {len(source.xyz):,} vertices, {len(source.objects)} objects")
     gaussians = gaussians_from_vertices(source.xyz, source.rgb, config)
     labels = source.instance.astype(np.int32)
     w, h = config.width, config.height

@@ -120,7 +120,7 @@ def test_malformed_objects_files_raise_input_format_error(
 
 
 def test_missing_scene_id_is_reported(tmp_path: Path) -> None:
-    doc = {"objects": []}
+    doc = {"objects": KITCHEN["objects"]}
     with pytest.raises(InputFormatError, match="no scene id"):
         objects_to_scene_graph(read_objects(write(tmp_path, doc)))
 

@@ -79,6 +79,10 @@ def test_synth_bad_inputs(tmp_path: Path) -> None:
     assert_one_line_error(
         run("synth", "--noise", "-1", "-o", str(tmp_path / "a"), check=False), "noise_strength"
     )
+    assert_one_line_error(
+        run("synth", "--seed", "-1", "-o", str(tmp_path / "a"), check=False),
+        "SynthConfig.seed must be an integer in [0, inf), got -1",
+    )
     blocker = tmp_path / "file"
     blocker.write_text("x")
     assert_one_line_error(
