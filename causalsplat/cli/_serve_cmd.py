@@ -8,11 +8,25 @@ from types import FrameType
 
 import click
 
-from causalsplat.cli._app import SECONDS, cli, db_option
+from causalsplat.cli._app import SECONDS, cli, db_option, fail
 
 
 def _stop(signum: int, frame: FrameType | None) -> None:
     raise KeyboardInterrupt
+
+
+def _origins(values: tuple[str, ...]) -> tuple[str, ...]:
+    """--cors values: ``*`` or an origin, ``scheme://host[:port]`` with nothing after."""
+    from urllib.parse import urlsplit
+
+    for value in values:
+        parts = urlsplit(value)
+        if value != "*" and (
+            parts.scheme not in ("http", "https") or not parts.netloc
+            or parts.path or parts.query or parts.fragment
+        ):  # fmt: skip
+            fail(f"--cors {value!r} is not an origin: give scheme://host[:port] or *")
+    return values
 
 
 @cli.command("serve")
@@ -27,7 +41,12 @@ def _stop(signum: int, frame: FrameType | None) -> None:
 )  # fmt: skip
 @click.option(
     "--limit", type=click.IntRange(min=1), default=10_000, show_default=True,
-    help="The most rows a SPARQL answer holds (more are cut off).",
+    help="The most rows a SPARQL answer holds (a query giving more is refused: page it).",
+)  # fmt: skip
+@click.option(
+    "--cors", "cors", multiple=True, metavar="ORIGIN",
+    help="Let pages of ORIGIN (https://host:port, or * for any) read /sparql"
+    " (repeatable; none by default).",
 )  # fmt: skip
 @click.option(
     "--timeout", type=SECONDS, default=30.0, show_default=True,
@@ -36,7 +55,14 @@ def _stop(signum: int, frame: FrameType | None) -> None:
 @click.option("--quiet", is_flag=True, help="Do not log requests on stderr.")
 @db_option
 def serve(
-    host: str, port: int, allow_remote: bool, limit: int, timeout: float, quiet: bool, db_url: str
+    host: str,
+    port: int,
+    allow_remote: bool,
+    limit: int,
+    cors: tuple[str, ...],
+    timeout: float,
+    quiet: bool,
+    db_url: str,
 ) -> None:
     """Serve a store over HTTP: a SPARQL 1.1 Protocol endpoint at /sparql, a JSON API at
     /api/scenes and a 3D viewer at /.
@@ -48,7 +74,7 @@ def serve(
     from causalsplat.serve import App, Server
 
     with open_store(db_url, create=False) as store:
-        app = App(store, limit=limit, timeout_s=timeout)
+        app = App(store, limit=limit, timeout_s=timeout, cors=_origins(cors))
         server = Server(app, host, port, allow_remote=allow_remote,
                         log=None if quiet else sys.stderr)  # fmt: skip
         # SIGINT too: a shell starts a background job with SIGINT ignored

@@ -166,12 +166,15 @@ class App:
         routes: Iterable[Route] | None = None,
         limit: int = 10_000,
         timeout_s: float = 30.0,
+        cors: Iterable[str] = (),
     ) -> None:
         from causalsplat.serve.routes import ROUTES
 
         self.store = store
         self.limit = limit
         self.timeout_s = timeout_s
+        #: Origins whose pages may read ``/sparql`` (``serve --cors``); none by default.
+        self.cors = frozenset(cors)
         self.routes: list[Route] = list(ROUTES if routes is None else routes)
         #: Held while a SPARQL query runs: the store keeps one RDF view and one worker.
         self.sparql_lock = threading.Lock()
@@ -204,8 +207,26 @@ class App:
             self._scenes[scene_id] = (summary.created_at, handle)
             return handle
 
+    def cors_origin(self, request: Request) -> str | None:
+        """The request's ``Origin`` when it may read ``/sparql`` (:attr:`cors`), else None."""
+        origin = request.header("origin")
+        if request.path != "/sparql" or not origin:
+            return None
+        return origin if origin in self.cors or "*" in self.cors else None
+
     def handle(self, request: Request) -> Response:
-        """The response to ``request``: its route's, or an error response."""
+        """The response to ``request``: its route's, or an error response; a ``/sparql``
+        response names an allowed origin (:meth:`cors_origin`)."""
+        response = self._respond(request)
+        origin = self.cors_origin(request)
+        if origin is not None:
+            response.headers["Access-Control-Allow-Origin"] = origin
+            response.headers["Vary"] = ", ".join(
+                v for v in (response.headers.get("Vary"), "Origin") if v
+            )
+        return response
+
+    def _respond(self, request: Request) -> Response:
         try:
             return self._dispatch(request)
         except HttpError as exc:

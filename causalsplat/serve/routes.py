@@ -11,6 +11,7 @@ ROUTES: list[Route] = [
     Route("GET", "/static/{path:path}", static.static_file),
     Route("GET", "/sparql", sparql_protocol.sparql),
     Route("POST", "/sparql", sparql_protocol.sparql),
+    Route("OPTIONS", "/sparql", sparql_protocol.preflight),
     Route("GET", "/api/scenes", api.list_scenes),
     Route("GET", "/api/scenes/{scene_id}", api.get_scene),
     Route("GET", "/api/scenes/{scene_id}/entities", api.list_entities),

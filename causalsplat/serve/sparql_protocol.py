@@ -18,7 +18,8 @@ TSV for SELECT only); for CONSTRUCT and DESCRIBE Turtle (the default), N-Triples
 RDF/XML. A ``format`` or ``output`` parameter naming one of these (``json``, ``xml``,
 ``csv``, ``tsv``, ``turtle``, ``ntriples``, ``jsonld``, ``rdfxml``) takes precedence; 406
 when nothing acceptable exists. The app's row limit and timeout bound every query: a
-result cut at the limit carries ``X-Truncated: true``; a query past its time is stopped and
+query giving more rows than the limit is refused with 400 naming the limit and how to page
+(LIMIT/OFFSET), never cut silently; a query past its time is stopped and
 answered 503.
 """
 
@@ -166,9 +167,25 @@ def sparql(app: App, request: Request, params: dict[str, str]) -> Response:
         )
     finally:
         app.sparql_lock.release()
+    if result.truncated:
+        # a cut result would look complete to every standard client: refused instead
+        raise HttpError(
+            400,
+            f"the query gives more than {app.limit} rows, this endpoint's limit: add LIMIT"
+            f" (at most {app.limit}) and OFFSET to page through them",
+        )
     response = Response(200, result.serialize(fmt).encode("utf-8"), MEDIA_TYPES[fmt])  # type: ignore[arg-type]
     response.headers["Vary"] = "Accept"
     response.headers["X-Row-Limit"] = str(app.limit)
-    if result.truncated:
-        response.headers["X-Truncated"] = "true"
+    return response
+
+
+def preflight(app: App, request: Request, params: dict[str, str]) -> Response:
+    """A CORS preflight for ``/sparql``: allowed for the origins ``serve --cors`` names
+    (the headers are added by :meth:`App.handle`), a plain 204 otherwise."""
+    response = Response(204, b"", "text/plain")
+    if app.cors_origin(request) is not None:
+        response.headers["Access-Control-Allow-Methods"] = "GET, POST, OPTIONS"
+        response.headers["Access-Control-Allow-Headers"] = "Content-Type, Accept"
+        response.headers["Access-Control-Max-Age"] = "600"
     return response
