@@ -15,6 +15,11 @@ if TYPE_CHECKING:
     from causalsplat.masks.generate import ImageDone
 
 
+#: The longest image side --size takes: 16384 px holds any camera of a 3DGS capture, and a
+#: view's masks at 16384 x 16384 are already 268 MB per mask as booleans.
+MAX_SIDE = 16_384
+
+
 @cli.group("masks")
 def masks() -> None:
     """Masks people have (SAM / SAM 2 JSON, label maps, uint8 stacks) in the canonical form,
@@ -44,8 +49,14 @@ def convert(
     fixed = None
     if size is not None:
         w, sep, h = size.lower().partition("x")
-        if not (sep and w.isdigit() and h.isdigit() and int(w) > 0 and int(h) > 0):
-            fail(f"--size must be WIDTHxHEIGHT in pixels (both > 0), got {size!r}")
+        if not (
+            sep
+            and w.isdigit()
+            and h.isdigit()
+            and min(int(w), int(h)) > 0
+            and max(int(w), int(h)) <= MAX_SIDE
+        ):
+            fail(f"--size must be WIDTHxHEIGHT in pixels, each in [1, {MAX_SIDE}], got {size!r}")
         fixed = (int(h), int(w))
     sizes = camera_sizes(scene_folder) if scene_folder is not None else None
     report = convert_masks(source, output, sizes=sizes, size=fixed)

@@ -140,7 +140,9 @@ _MAX_HEADER_BYTES = 1 << 20
 
 def _check_declared_size(path: Path) -> None:
     """Refuse a header whose element counts need more bytes than the file holds, before
-    anything is allocated for them (a corrupt count would otherwise ask for terabytes)."""
+    anything is allocated for them (a corrupt count would otherwise ask for terabytes), and
+    a binary file of fixed-size rows holding more than its header declares (a wrong count,
+    or two files joined: the rest would be silently ignored)."""
     with open(path, "rb") as fh:
         head = fh.read(_MAX_HEADER_BYTES)
         size = os.fstat(fh.fileno()).st_size
@@ -148,7 +150,7 @@ def _check_declared_size(path: Path) -> None:
     if not head.startswith(b"ply") or end < 0:
         return  # plyfile names what is wrong
     body = size - (head.find(b"\n", end) + 1)
-    binary, needed, count = True, 0, 0
+    binary, needed, count, lists = True, 0, 0, False
     for line in head[:end].decode("ascii", "replace").splitlines():
         words = line.split()
         if words[:1] == ["format"] and len(words) > 1:
@@ -157,12 +159,18 @@ def _check_declared_size(path: Path) -> None:
             count = int(words[2])
             needed += count if not binary else 0  # ascii: at least one byte per row
         elif words[:1] == ["property"] and len(words) >= 3 and binary:
+            lists = lists or words[1] == "list"
             width = 1 if words[1] == "list" else _PLY_TYPE_BYTES.get(words[1], 1)
             needed += count * width
     if needed > body:
         raise PlyFormatError(
             f"{path}: the header declares {needed:,} bytes of elements but the file holds"
             f" {max(body, 0):,} after it (a corrupt element count, or a truncated file)"
+        )
+    if binary and not lists and body > needed:
+        raise PlyFormatError(
+            f"{path}: {body - needed:,} bytes follow the {needed:,} bytes of elements the"
+            " header declares (a wrong element count, or data appended to the file)"
         )
 
 

@@ -193,3 +193,20 @@ def test_a_count_beyond_the_file_is_refused_before_allocating(tmp_path: Path) ->
     huge.write_bytes(b"\n".join(lines) + sep + body)
     with pytest.raises(PlyFormatError, match=r"huge.ply: the header declares 496,000,000,000"):
         read_ply(huge)
+
+
+def test_bytes_after_the_declared_rows_are_refused(tmp_path: Path) -> None:
+    """A real capture with one more (partial) row appended, or a count one too small: the
+    rest of the file would be dropped without a word."""
+    data = _sample().read_bytes()
+    longer = tmp_path / "longer.ply"
+    longer.write_bytes(data + b"\x00" * 7)
+    with pytest.raises(PlyFormatError, match=r"longer.ply: 7 bytes follow the .* declares"):
+        read_ply(longer)
+    head, sep, body = data.partition(b"end_header\n")
+    n = int(next(x for x in head.split(b"\n") if x.startswith(b"element vertex")).split()[2])
+    short = tmp_path / "short.ply"
+    short.write_bytes(head.replace(b"element vertex %d" % n, b"element vertex %d" % (n - 1))
+                      + sep + body)  # fmt: skip
+    with pytest.raises(PlyFormatError, match="bytes follow"):
+        read_ply(short)
