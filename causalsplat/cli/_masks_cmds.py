@@ -15,11 +15,6 @@ if TYPE_CHECKING:
     from causalsplat.masks.generate import ImageDone
 
 
-#: The longest image side --size takes: 16384 px holds any camera of a 3DGS capture, and a
-#: view's masks at 16384 x 16384 are already 268 MB per mask as booleans.
-MAX_SIDE = 16_384
-
-
 @cli.group("masks")
 def masks() -> None:
     """Masks people have (SAM / SAM 2 JSON, label maps, uint8 stacks) in the canonical form,
@@ -42,7 +37,7 @@ def convert(
     """Convert SOURCE's mask files (.json from SAM's automatic mask generator with COCO RLE
     or polygons, .png/.npy label maps, .npz/.npy mask stacks) to OUTPUT/<stem>.npz."""
     from causalsplat.build.folder import camera_sizes
-    from causalsplat.masks.convert import convert_masks
+    from causalsplat.masks.convert import MAX_SIDE, convert_masks
 
     if scene_folder is not None and size is not None:
         fail("give --scene FOLDER or --size WxH, not both")

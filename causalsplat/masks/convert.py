@@ -46,7 +46,13 @@ def _counts_from_string(text: str) -> list[int]:
         x = k = 0
         more = True
         while more:
+            if p >= len(text):
+                raise ValueError("the RLE 'counts' string ends inside a run length")
             c = ord(text[p]) - 48
+            if not 0 <= c < 64:
+                raise ValueError(
+                    f"the RLE 'counts' string holds {text[p]!r}, not a COCO RLE letter"
+                )
             x |= (c & 0x1F) << (5 * k)
             more = bool(c & 0x20)
             p += 1
@@ -59,13 +65,26 @@ def _counts_from_string(text: str) -> list[int]:
     return counts
 
 
+#: The longest image side a mask file may declare (as ``masks convert --size`` takes).
+MAX_SIDE = 16_384
+
+
+def _image_size(size: object, what: str) -> tuple[int, int]:
+    """``[height, width]`` as two ints in ``[1, MAX_SIDE]``, else ValueError naming ``what``."""
+    if not (
+        isinstance(size, list) and len(size) == 2
+        and all(isinstance(v, int) and not isinstance(v, bool) for v in size)
+        and all(1 <= v <= MAX_SIDE for v in size)
+    ):  # fmt: skip
+        raise ValueError(f"{what} must be [height, width], each in [1, {MAX_SIDE}], got {size!r}")
+    return size[0], size[1]
+
+
 def decode_rle(rle: dict[str, Any]) -> np.ndarray:
     """A COCO RLE (column-major runs, first run of zeros) as an ``(h, w)`` bool mask."""
     size = rle.get("size")
     counts = rle.get("counts")
-    if not (isinstance(size, list) and len(size) == 2 and all(isinstance(v, int) for v in size)):
-        raise ValueError(f"RLE 'size' must be [height, width], got {size!r}")
-    h, w = size
+    h, w = _image_size(size, "RLE 'size'")
     if isinstance(counts, bytes):
         counts = counts.decode("ascii")
     runs = _counts_from_string(counts) if isinstance(counts, str) else counts
@@ -108,7 +127,7 @@ def _annotation_mask(ann: dict[str, Any], size: tuple[int, int] | None) -> np.nd
         hw = ann.get("size") or size
         if hw is None:
             raise ValueError("a polygon segmentation needs the image size ('size' or 'image')")
-        return _polygons(seg, int(hw[0]), int(hw[1]))
+        return _polygons(seg, *_image_size(list(hw), "the polygon's image 'size'"))
     raise ValueError("'segmentation' must be COCO RLE, polygons or a 0/1 bitmap")
 
 

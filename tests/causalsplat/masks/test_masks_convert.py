@@ -123,3 +123,27 @@ def test_bad_mask_files_are_one_line(tmp_path: Path) -> None:
     assert read_masks(tmp_path / "out" / "a.npz").masks.shape == (0, 6, 8)
     assert_one_line_error(run("masks", "convert", str(src), "-o", str(tmp_path / "o"),
                               "--size", "0x6", check=False), "WIDTHxHEIGHT")  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("segmentation", "words"),
+    [
+        ({"size": [2, 2], "counts": "P"}, "ends inside a run length"),  # "more digits" bit, cut
+        ({"size": [2, 2], "counts": "~~"}, "not a COCO RLE letter"),
+        ({"size": [100000, 100000], "counts": [10**10]}, "each in [1, 16384]"),
+        ({"size": [2], "counts": [4]}, "must be [height, width]"),
+        ([[0, 0, 1, 0, 1, 1]], "image 'size' must be [height, width]"),
+    ],
+)
+def test_bad_coco_segmentations_are_one_line(
+    tmp_path: Path, segmentation: object, words: str
+) -> None:
+    src = tmp_path / "bad"
+    src.mkdir()
+    ann = {"segmentation": segmentation}
+    if isinstance(segmentation, list):
+        ann["size"] = [5]  # a polygon with a one-number image size
+    (src / "a.json").write_text(json.dumps([ann]))
+    proc = run("masks", "convert", str(src), "-o", str(tmp_path / "out"), check=False)
+    assert_one_line_error(proc, words)
+    assert not (tmp_path / "out").exists()
