@@ -31,15 +31,28 @@ class JSONInputError(ValueError):
     """The bytes are not a JSON document this library can read (the message says why)."""
 
 
+def utf8_text(data: bytes) -> str:
+    """``data`` as UTF-8 text (a leading byte-order mark dropped), or :class:`ValueError`
+    naming the first byte that is not.
+
+    >>> utf8_text(b"ab\\xff")
+    Traceback (most recent call last):
+    ...
+    ValueError: not UTF-8 text (byte 2 is 0xff)
+    """
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"not UTF-8 text (byte {exc.start} is 0x{data[exc.start]:02x})") from None
+
+
 def decode_json(data: bytes | str, *, parse_constant: Callable[[str], Any] | None = None) -> Any:
     """The decoded document, or :class:`JSONInputError` naming the problem."""
     if isinstance(data, bytes):
         try:
-            data = data.decode("utf-8-sig")
-        except UnicodeDecodeError as exc:
-            raise JSONInputError(
-                f"not valid JSON: not UTF-8 text (byte {exc.start} is 0x{data[exc.start]:02x})"
-            ) from None
+            data = utf8_text(data)
+        except ValueError as exc:
+            raise JSONInputError(f"not valid JSON: {exc}") from None
     try:
         return json.loads(data, parse_constant=parse_constant, object_pairs_hook=_unique_keys)
     except json.JSONDecodeError as exc:

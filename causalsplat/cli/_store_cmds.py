@@ -262,12 +262,12 @@ def _parse_binding(text: str) -> tuple[str, Any]:
 
 
 def _query_text(path: Path) -> str:
-    data = path.read_bytes()
+    from causalsplat._json import utf8_text
+
     try:
-        return data.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        byte = data[exc.start]
-        fail(f"{path}: not a SPARQL query: not UTF-8 text (byte {exc.start} is 0x{byte:02x})")
+        return utf8_text(path.read_bytes())
+    except ValueError as exc:
+        fail(f"{path}: not a SPARQL query: {exc}")
 
 
 @cli.command("sparql")

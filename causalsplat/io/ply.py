@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from causalsplat._atomic import atomic_target
 from causalsplat.errors import MissingDependencyError
 from causalsplat.io.errors import InvalidSceneError, PlyFormatError
 from causalsplat.io.types import GaussianScene
@@ -316,10 +317,5 @@ def write_ply(
         comments=[*base.comments, *comments],
         obj_info=list(base.obj_info),
     )
-    tmp = path.with_name(path.name + ".tmp")
-    try:
+    with atomic_target(path) as tmp:
         ply.write(str(tmp))
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()

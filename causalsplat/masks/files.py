@@ -14,13 +14,13 @@ same masks always give the same bytes, and atomically (a temporary file renamed 
 from __future__ import annotations
 
 import io
-import os
 import zipfile
 from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
 
+from causalsplat._atomic import atomic_target
 from causalsplat.masks.types import MaskFormatError, MaskSet
 
 
@@ -67,9 +67,8 @@ def write_npz(path: str | Path, arrays: Mapping[str, np.ndarray], *, compress: b
             info.compress_type = method
             info.external_attr = 0o644 << 16
             archive.writestr(info, member.getvalue())
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_bytes(buffer.getvalue())
-    os.replace(tmp, path)
+    with atomic_target(path) as tmp:
+        tmp.write_bytes(buffer.getvalue())
 
 
 def write_masks(path: str | Path, maskset: MaskSet) -> None:

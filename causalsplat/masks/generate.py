@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import importlib.util
 import json
-import os
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
@@ -30,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from causalsplat._atomic import atomic_target
 from causalsplat.errors import InputFormatError, MissingDependencyError
 
 #: Image suffixes read (any case).
@@ -198,9 +198,8 @@ def _check_output(output: Path) -> Path:
 
 
 def _write_json(path: Path, document: Any) -> None:
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(json.dumps(document), encoding="utf-8")
-    os.replace(tmp, path)
+    with atomic_target(path) as tmp:
+        tmp.write_text(json.dumps(document), encoding="utf-8")
 
 
 def generate_masks(

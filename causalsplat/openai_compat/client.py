@@ -45,6 +45,7 @@ from pathlib import Path
 from typing import Any
 from urllib.parse import urlsplit
 
+from causalsplat._json import utf8_text
 from causalsplat.openai_compat.errors import (
     ReplayMissError,
     VLMConfigError,
@@ -444,12 +445,9 @@ def _reply(response: Any, where: str) -> ChatReply:
 def _read_recording(path: Path) -> dict[str, deque[dict[str, Any]]]:
     out: dict[str, deque[dict[str, Any]]] = defaultdict(deque)
     try:
-        lines = path.read_text(encoding="utf-8").splitlines()
-    except UnicodeDecodeError as exc:
-        byte = exc.object[exc.start]
-        raise VLMConfigError(
-            f"{path}: not a recording: not UTF-8 text (byte {exc.start} is 0x{byte:02x})"
-        ) from None
+        lines = utf8_text(path.read_bytes()).splitlines()
+    except ValueError as exc:
+        raise VLMConfigError(f"{path}: not a recording: {exc}") from None
     for n, line in enumerate(lines, start=1):
         if not line.strip():
             continue
