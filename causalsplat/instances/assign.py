@@ -34,10 +34,12 @@ order), so they do not depend on HDBSCAN's label numbering.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
 
+from causalsplat.errors import MissingDependencyError
 from causalsplat.field.types import FeatureField, MaskEvidence
 from causalsplat.field.weights import normalize_rows
 from causalsplat.instances.config import InstanceConfig
@@ -73,26 +75,46 @@ class InstanceAssignment:
 
 
 def cluster_masks(features: np.ndarray, config: InstanceConfig) -> np.ndarray:
-    """(M,) int64 HDBSCAN cluster of each (M, C) mask feature, -1 noise (step 1)."""
+    """(M,) int64 HDBSCAN cluster of each (M, C) mask feature, -1 noise (step 1).
+
+    The clusters are the ``hdbscan`` package's (McInnes, Healy and Astels), on its exact
+    minimum spanning tree (``approx_min_span_tree=False``), so a run does not depend on
+    the order the approximate tree visits ties in. ``min_samples`` is capped at ``M - 1``.
+    """
     x = np.asarray(features, dtype=np.float64)
     if x.shape[0] < config.min_cluster_size:
         return np.full(x.shape[0], -1, dtype=np.int64)
-    from causalsplat.instances.density import hdbscan_labels
+    hdbscan = _hdbscan()
+    min_samples = config.min_samples or config.min_cluster_size
 
     def run(single: bool) -> np.ndarray:
-        return hdbscan_labels(
-            x,
+        model = hdbscan.HDBSCAN(
             min_cluster_size=config.min_cluster_size,
-            min_samples=config.min_samples,
-            selection=config.selection,
-            epsilon=config.selection_epsilon,
+            min_samples=min(min_samples, x.shape[0] - 1),
+            metric="euclidean",
+            cluster_selection_method=config.selection,
+            cluster_selection_epsilon=config.selection_epsilon,
             allow_single_cluster=single,
+            approx_min_span_tree=False,
+            core_dist_n_jobs=1,
         )
+        return np.asarray(model.fit(x).labels_, dtype=np.int64)
 
     labels = run(False)
     if labels.size and labels.max() < 0:
         labels = run(True)
     return labels
+
+
+def _hdbscan() -> Any:
+    """The ``hdbscan`` package, imported when the instance stage first clusters."""
+    try:
+        import hdbscan
+    except ImportError as exc:  # pragma: no cover - the field extra installs it
+        raise MissingDependencyError(
+            "clustering masks into entities needs hdbscan: pip install 'causalsplat[field]'"
+        ) from exc
+    return hdbscan
 
 
 def assign_instances(
