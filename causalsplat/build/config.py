@@ -159,12 +159,16 @@ class BuildConfig:
 
     def result_json(self) -> dict[str, Any]:
         """:meth:`to_json` less the options that change only speed and memory (``views``,
-        ``memory_budget_mib``, ``huge_pages``, ``raster.threads``): what the scene's
-        ``config_hash`` and the stage caches are keyed on."""
+        ``memory_budget_mib``, ``huge_pages``, ``raster.threads``, ``field.device``,
+        ``field.trainer``: the two trainers take the same steps, see
+        :mod:`causalsplat.field.train_torch`): what the scene's ``config_hash`` and the
+        stage caches are keyed on."""
         out = self.to_json()
         for name in SPEED_ONLY:
             out.pop(name)
         out["raster"].pop("threads")
+        out["field"].pop("device")
+        out["field"].pop("trainer")
         return out
 
     def memory_budget_bytes(self) -> int:

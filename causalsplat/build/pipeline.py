@@ -48,6 +48,7 @@ from causalsplat.field import (
     prepare_views,
 )
 from causalsplat.field.blas import single_threaded_blas
+from causalsplat.field.device import resolve_trainer
 from causalsplat.graph import build_relations
 from causalsplat.graph.contact import Surfaces
 from causalsplat.graph.labeling import Labeler, label_entities
@@ -216,6 +217,7 @@ def _build(
     progress: bool,
     labeler: Labeler | None,
 ) -> BuildResult:
+    resolve_trainer(config.field)  # a device this machine lacks fails before any work
     cache = StageCache(default_cache_dir() if cache_dir is True else (cache_dir or None))
     stages = _Stages(str(path), lines=progress and not sys.stderr.isatty())
     with stages.stage("load"):

@@ -90,6 +90,12 @@ _BUILD_OPTIONS = [
         help="Where the views' weights stay between passes: auto (memory up to the budget, "
         "then disk), memory, disk, or recompute (rasterized again at each use).",
     ),
+    click.option(
+        "--device",
+        type=click.Choice(["auto", "cpu", "cuda"]),
+        help="Where the feature field trains: auto (default: a CUDA GPU that torch sees, on "
+        "torch; else the CPU, on the numpy trainer), cpu, or cuda (torch; fails without one).",
+    ),
 ]
 
 
@@ -110,6 +116,7 @@ def config_from_options(
     threads: int | None,
     memory_budget: str | None,
     views: str | None,
+    device: str | None = None,
 ) -> BuildConfig:
     """The build config of the config file (or the defaults) and the options given."""
     from causalsplat.build import BuildConfig
@@ -131,6 +138,9 @@ def config_from_options(
         config = dataclasses.replace(config, memory_budget_mib=parse_mib(memory_budget))
     if views is not None:
         config = dataclasses.replace(config, views=views)  # type: ignore[arg-type]
+    if device is not None:
+        field = dataclasses.replace(config.field, device=device)  # type: ignore[arg-type]
+        config = dataclasses.replace(config, field=field)
     return config
 
 
@@ -184,6 +194,7 @@ def build(
     threads: int | None,
     memory_budget: str | None,
     views: str | None,
+    device: str | None,
     progress: bool | None,
     db_url: str,
     as_json: bool,
@@ -197,7 +208,7 @@ def build(
     from causalsplat.api import open_store
 
     config = config_from_options(config_file, max_views, labeler, allow_distortion, image_scale,
-                                 threads, memory_budget, views)  # fmt: skip
+                                 threads, memory_budget, views, device)  # fmt: skip
     cache: Path | bool = False if no_cache else (cache_dir or True)
     with open_store(db_url) as store:
         scene = store.build(

@@ -77,6 +77,7 @@ def build_many(
     threads: int | None,
     memory_budget: str | None,
     views: str | None,
+    device: str | None,
     progress: bool | None,
     db_url: str,
     as_json: bool,
@@ -93,7 +94,7 @@ def build_many(
     from causalsplat.build.batch import build_many as build_many_scenes
 
     config = config_from_options(config_file, max_views, labeler, allow_distortion, image_scale,
-                                 threads, memory_budget, views)  # fmt: skip
+                                 threads, memory_budget, views, device)  # fmt: skip
     show = (not as_json) if progress is None else progress
 
     def line(text: str) -> None:

@@ -140,7 +140,7 @@ def draw_scene_graph(graph: SceneGraph, out: str | Path, *, width: int = 1200) -
         from PIL import Image, ImageDraw
     except ImportError as exc:  # pillow ships with the field extra
         raise MissingDependencyError(
-            "the scene-graph figure needs pillow: pip install 'causalsplat[field]'"
+            "the scene-graph figure needs pillow: pip install 'causalsplat[build]'"
         ) from exc
     if not graph.entities:
         raise ExportError(f"scene {graph.scene_id!r} has no entities to draw")

@@ -72,7 +72,7 @@ def export_answer_masks(
         from PIL import Image
     except ImportError as exc:  # pillow ships with the field extra
         raise MissingDependencyError(
-            "answer masks are written with pillow: pip install 'causalsplat[field]'"
+            "answer masks are written with pillow: pip install 'causalsplat[build]'"
         ) from exc
 
     from causalsplat.render import render_ids, render_rgb

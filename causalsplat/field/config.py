@@ -12,6 +12,8 @@ from causalsplat.errors import CausalSplatError
 
 Weighting = Literal["spatial", "average", "random"]
 Init = Literal["uplift", "random"]
+Device = Literal["auto", "cpu", "cuda"]
+Trainer = Literal["auto", "numpy", "torch"]
 
 
 class FieldConfigError(CausalSplatError, ValueError):
@@ -55,6 +57,13 @@ class FieldConfig:
             be noise). 0 keeps every mask pixel.
         min_opacity: Gaussians below this opacity are pruned before rendering.
         seed: every random draw (codes, sampling, view order) derives from it.
+        device: where the torch trainer runs: ``cuda``, ``cpu``, or ``auto`` (CUDA when this
+            machine has an NVIDIA GPU that torch sees, else the CPU).
+        trainer: ``torch`` (autograd and ``torch.optim.Adam`` on ``device``), ``numpy``
+            (the hand-derived gradient and a compiled Adam, CPU only, held to the torch one
+            by the tests) or ``auto``: torch on a CUDA device for scenes of at least
+            600k Gaussians, numpy otherwise, whichever was the faster where measured
+            (:mod:`causalsplat.field.device`; docs/benchmarks.md, "Training on torch").
     """
 
     feature_dim: int = 16
@@ -73,6 +82,8 @@ class FieldConfig:
     min_pixel_alpha: float = 0.5
     min_opacity: float = 1.0 / 255.0
     seed: int = 0
+    device: Device = "auto"
+    trainer: Trainer = "auto"
 
     def __post_init__(self) -> None:
         check_fields("FieldConfig", asdict(self), _ALLOWED, FieldConfigError)
@@ -103,4 +114,6 @@ _ALLOWED: dict[str, Allowed] = {
     "min_pixel_alpha": Interval(0, 1, high_open=True),
     "min_opacity": Interval(0, 1, high_open=True),
     "seed": Interval(0, integer=True),
+    "device": ("auto", "cpu", "cuda"),
+    "trainer": ("auto", "numpy", "torch"),
 }

@@ -227,11 +227,13 @@ def lift_features(
     losses: tuple[float, ...] = ()
     feats = init
     if config.iterations > 0 and n_active > 0:
-        from causalsplat.field.train import train_features
+        from causalsplat.field.device import resolve_trainer
 
-        feats, losses = train_features(
-            views.contributors, views.masks, init, config, progress=progress
-        )
+        if resolve_trainer(config, n_active) == "torch":
+            from causalsplat.field.train_torch import train_features_torch as train
+        else:
+            from causalsplat.field.train import train_features as train
+        feats, losses = train(views.contributors, views.masks, init, config, progress=progress)
     full = np.zeros((views.n_gaussians, config.feature_dim), dtype=np.float32)
     full[views.active] = normalize_rows(feats).astype(np.float32)
     sup = np.zeros(views.n_gaussians, dtype=bool)

@@ -22,17 +22,20 @@ Gaussians, about 68k covered pixels a view) a step on 4096 of them takes about 8
 of them 35 ms, at equal instance quality (docs/benchmarks.md, "Training on sampled
 pixels").
 
-The loss and its gradient with respect to the rendered features are written out by hand
-(:func:`contrastive_loss_and_grad`; a test holds the gradient to torch's autograd of the
-same formulas), the render and its transpose are compiled row kernels
-(:meth:`~causalsplat.render.types.Contributors.composite_rows`), and Adam is one compiled
-pass (numpy without numba): a build does not import torch (about a second), and a step
-runs no autograd bookkeeping. numpy / scipy (numba where it imports).
+This is the CPU fast path. The loss and its gradient with respect to the rendered features
+are written out by hand (:func:`contrastive_loss_and_grad`), the render and its transpose
+are compiled row kernels (:meth:`~causalsplat.render.types.Contributors.composite_rows`),
+and Adam is one compiled pass (numpy without numba): a step runs no autograd bookkeeping,
+and a build on the CPU does not import torch (about a second). The torch trainer
+(:mod:`causalsplat.field.train_torch`: autograd, ``torch.optim.Adam``, CUDA) walks the same
+:func:`step_plan`; the tests hold the two to each other step by step. On the CPU this one
+is 2.4-4x faster (docs/benchmarks.md, "Training on torch"). numpy / scipy (numba where
+it imports).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -181,14 +184,38 @@ def train_features(
     if not views or config.iterations == 0:
         return feats.astype(np.float64), ()
     with single_threaded_blas():
-        losses = _train(contributors, masks, views, feats, config, progress)
+        losses = _train(contributors, masks, feats, config, progress)
     return feats.astype(np.float64), losses
+
+
+def step_plan(
+    masks: Sequence[ViewMasks], config: FieldConfig
+) -> Iterator[tuple[int, np.ndarray | None]]:
+    """(view, sorted sample of its covered pixels or ``None`` for all) of every step.
+
+    Views without usable masks are skipped; the others are visited in a seeded random
+    order, each once per epoch. Both trainers walk this plan, so they see the same steps.
+    """
+    views = [i for i, vm in enumerate(masks) if vm.n_masks > 0 and vm.pixels.size > 0]
+    if not views:
+        return
+    order_rng = np.random.default_rng(config.seed)
+    sample_rng = np.random.default_rng([config.seed, 3])
+    order: list[int] = []
+    for _ in range(config.iterations):
+        if not order:
+            order = [views[k] for k in order_rng.permutation(len(views))]
+        v = order.pop()
+        n = masks[v].pixels.shape[0]
+        sample = None
+        if 0 < config.pixels_per_step < n:
+            sample = np.sort(sample_rng.choice(n, config.pixels_per_step, replace=False))
+        yield v, sample
 
 
 def _train(
     contributors: Sequence[Contributors],
     masks: Sequence[ViewMasks],
-    views: list[int],
     feats: np.ndarray,
     config: FieldConfig,
     progress: Callable[[int], None] | None,
@@ -198,22 +225,11 @@ def _train(
     gradient = np.zeros_like(feats)  # one buffer for every step's gradient
     overlaps: dict[int, np.ndarray] = {}
     negatives_rng = np.random.default_rng([config.seed, 4])
-    order_rng = np.random.default_rng(config.seed)
-    sample_rng = np.random.default_rng([config.seed, 3])
-    order: list[int] = []
     losses: list[float] = []
-    for step in range(config.iterations):
-        if not order:
-            order = [views[k] for k in order_rng.permutation(len(views))]
-        v = order.pop()
+    for step, (v, sample) in enumerate(step_plan(masks, config)):
         # A view's weights and loss terms are made for its step and dropped after it, so
         # memory holds one view at a time (views may be read from disk, see prepare_views).
         vm = masks[v]
-        sample = None
-        if 0 < config.pixels_per_step < vm.pixels.shape[0]:
-            sample = np.sort(
-                sample_rng.choice(vm.pixels.shape[0], config.pixels_per_step, replace=False)
-            )
         if v not in overlaps:
             overlaps[v] = mask_overlap(vm, config.nested_share)
         terms = _view_terms(vm, sample, overlaps[v])

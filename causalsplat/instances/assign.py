@@ -112,7 +112,7 @@ def _hdbscan() -> Any:
         import hdbscan
     except ImportError as exc:  # pragma: no cover - the field extra installs it
         raise MissingDependencyError(
-            "clustering masks into entities needs hdbscan: pip install 'causalsplat[field]'"
+            "clustering masks into entities needs hdbscan: pip install 'causalsplat[build]'"
         ) from exc
     return hdbscan
 

@@ -11,7 +11,7 @@ coefficient ``j+1`` of colour channel ``c``. Any other vertex property (normals,
 Values are stored raw in :class:`GaussianScene` (activations are its properties), and the
 property order, dtypes and header of a file read here are kept in a :class:`PlyLayout`, so
 reading and writing back an unchanged float32 file reproduces it byte for byte. plyfile is
-imported when a function here is called (``pip install 'causalsplat[field]'``).
+imported when a function here is called (``pip install 'causalsplat[build]'``).
 """
 
 from __future__ import annotations
@@ -75,7 +75,7 @@ def _plyfile() -> Any:
         import plyfile
     except ImportError as exc:  # pragma: no cover - depends on the environment
         raise MissingDependencyError(
-            "reading/writing PLY needs plyfile: pip install 'causalsplat[field]'"
+            "reading/writing PLY needs plyfile: pip install 'causalsplat[build]'"
         ) from exc
     return plyfile
 

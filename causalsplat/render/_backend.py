@@ -32,7 +32,7 @@ def resolve_backend(config: RasterConfig) -> Literal["numba", "numpy"]:
         return "numba"
     if config.backend == "numba":
         raise MissingDependencyError(
-            "RasterConfig.backend='numba' needs numba: pip install 'causalsplat[field]' "
+            "RasterConfig.backend='numba' needs numba: pip install 'causalsplat[build]' "
             "(or use backend='auto' to fall back to the numpy path)"
         )
     return "numpy"
