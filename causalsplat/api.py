@@ -463,10 +463,11 @@ class Scene:
         self, program: GraphQuery | str | bytes | dict[str, Any], *, executor: str = "networkx"
     ) -> QueryResult:
         """Run a structured program (a ``GraphQuery``, its JSON or its dict) on this scene
-        with the ``networkx`` (in memory), ``sql`` or ``sparql`` executor."""
+        with the ``networkx`` (the reference, on networkx graphs), ``memory`` (the same on
+        plain dicts), ``sql`` or ``sparql`` executor."""
         from queries import run_program
 
-        source = self.graph if executor == "networkx" else self.store.graph_store
+        source = self.graph if executor in ("networkx", "memory") else self.store.graph_store
         return run_program(source, self.id, program, executor=executor)
 
     def evaluate(

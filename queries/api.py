@@ -5,9 +5,12 @@
 >>> result.answer                                                          # doctest: +SKIP
 (53,)
 
-The three executors give equal :class:`~queries.QueryResult` objects for every program:
+The executors give equal :class:`~queries.QueryResult` objects for every program:
 
-* ``"networkx"`` (the reference): loads the scene graph and evaluates in memory;
+* ``"networkx"`` (the reference): loads the scene graph and evaluates it on networkx graphs
+  (imports networkx);
+* ``"memory"``: the same in memory on plain dicts, without importing networkx (what the
+  reasoner runs its programs on);
 * ``"sql"``: SQL on the store's database (SQLite or PostgreSQL); for an in-memory graph, on a
   private in-memory SQLite copy;
 * ``"sparql"``: SPARQL on the scene's RDF view in an Oxigraph store (``sparql_backend=
@@ -33,8 +36,8 @@ from queries.sparql_endpoints import SparqlBackendName
 if TYPE_CHECKING:
     from graph_store.repository import GraphStore
 
-ExecutorName = Literal["networkx", "sql", "sparql"]
-EXECUTORS: tuple[str, ...] = ("networkx", "sql", "sparql")
+ExecutorName = Literal["networkx", "memory", "sql", "sparql"]
+EXECUTORS: tuple[str, ...] = ("networkx", "memory", "sql", "sparql")
 Source = Any  # a GraphStore, a SQLAlchemy Engine on a store, or a SceneGraph
 
 
@@ -73,6 +76,10 @@ def make_executor(
         from queries.networkx_executor import NetworkxExecutor
 
         return NetworkxExecutor(_graph(source, scene_id), config)
+    if executor == "memory":
+        from queries.memory_executor import MemoryExecutor
+
+        return MemoryExecutor(_graph(source, scene_id), config)
     if executor == "sql":
         from queries.sql_executor import SqlExecutor
 

@@ -11,7 +11,8 @@ included):
   them, how many (filters, ``relate``, ``filter_attribute``, ``argmax``,
   ``fall_if_removed``, ``count``).
 
-Each executor is prepared once per scene (networkx graph built, scene saved in a SQLite
+Each executor is prepared once per scene (networkx graphs or the memory executor's dicts
+built, scene saved in a SQLite
 file, Oxigraph / rdflib store loaded; those one-off costs are reported apart) and then runs
 each program ``repeats`` times after one warm-up run (garbage collector paused during a
 run, as ``timeit`` does); p50 and p95 are over those runs. The
@@ -41,6 +42,7 @@ from causalsplat.bench._postgres import scratch_database
 from graph_store.repository import open_store
 from graph_store.types import Attribute, Entity, Relation, SceneGraph, SceneMeta
 from queries import Executor, GraphQuery
+from queries.memory_executor import MemoryExecutor
 from queries.networkx_executor import NetworkxExecutor
 from queries.sparql_executor import SparqlExecutor
 from queries.sql_executor import SqlExecutor
@@ -133,6 +135,7 @@ def _executors(
     graph: SceneGraph, stores: dict[str, Any], n: int
 ) -> Iterator[tuple[str, Callable[[], Executor]]]:
     yield "networkx", lambda: NetworkxExecutor(graph)
+    yield "memory", lambda: MemoryExecutor(graph)
     for name, store in stores.items():
 
         def sql(store: Any = store) -> Executor:

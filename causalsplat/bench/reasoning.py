@@ -395,7 +395,7 @@ def _timing(tmp: Path, quick: bool) -> tuple[list[str], dict[str, Any]]:
                 lines.append(_row(
                     f"warm `scene.ask`, {label}, {warm.n_queries} {what}",
                     f"{warm.ask_ms:.1f} ms", "",
-                    f"program on the networkx executor {warm.executor_ms:.2f} ms",
+                    f"program on the memory executor {warm.executor_ms:.2f} ms",
                     f"{warm.ask_ms / warm.executor_ms:.1f}x", "",
                 ))  # fmt: skip
     return lines, data

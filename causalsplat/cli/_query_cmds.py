@@ -71,10 +71,11 @@ def _describe_answer(answer: Any, ents: list[dict[str, Any]]) -> list[str]:
 @scene_options
 @click.option(
     "--executor",
-    type=click.Choice(["networkx", "sql", "sparql"]),
+    type=click.Choice(["networkx", "memory", "sql", "sparql"]),
     default="sql",
     show_default=True,
-    help="networkx (in memory, the reference), sql (on the database) or sparql (Oxigraph).",
+    help="networkx (the reference, on networkx graphs), memory (the same on plain dicts, "
+    "without importing networkx), sql (on the database) or sparql (Oxigraph).",
 )
 @click.option("--explain", is_flag=True, help="Print the program with each step's result.")
 @db_option

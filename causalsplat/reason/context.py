@@ -1,7 +1,8 @@
 """What the reasoner knows about one scene, computed once and reused across questions.
 
 A :class:`SceneContext` wraps a :class:`~graph_store.SceneGraph` and keeps an executor for
-it (the networkx reference by default: the graph is already in memory), the scene's
+it (by default the ``memory`` executor: the graph is already in memory, and it imports
+no networkx; the tests hold it to the networkx reference), the scene's
 distinct categories and attribute values, its centre, and a cache where the backends put
 what they derive from the scene (the category index, category embeddings). The
 per-Gaussian labels are read from the store only when an answer needs them.
@@ -83,7 +84,9 @@ class SceneContext:
     @property
     def executor(self) -> Executor:
         if self._executor is None:
-            self._executor = make_executor(self.graph, self.scene_id, config=self.config)
+            self._executor = make_executor(
+                self.graph, self.scene_id, executor="memory", config=self.config
+            )
         return self._executor
 
     def run(self, program: GraphQuery) -> QueryResult:

@@ -29,7 +29,7 @@ from graph_store.documents import (
 )
 
 _REASONERS = ("offline", "vlm")
-_EXECUTORS = ("sql", "networkx", "sparql")
+_EXECUTORS = ("sql", "networkx", "memory", "sparql")
 
 
 def list_scenes(app: App, request: Request, params: dict[str, str]) -> Response:
@@ -124,13 +124,15 @@ def ask(app: App, request: Request, params: dict[str, str]) -> Response:
 
 def query(app: App, request: Request, params: dict[str, str]) -> Response:
     """A structured program (its JSON), with optional ``"executor"`` (``sql``, the default,
-    ``networkx`` or ``sparql``) and ``"explain": true``: the result, as ``causalsplat query
-    --json`` prints it."""
+    ``networkx``, ``memory`` or ``sparql``) and ``"explain": true``: the result, as
+    ``causalsplat query --json`` prints it."""
     body = _body_object(request, "a query request")
     executor = body.pop("executor", "sql")
     explain = body.pop("explain", False)
     if executor not in _EXECUTORS:
-        raise HttpError(400, f"unknown executor {executor!r}; expected sql, networkx or sparql")
+        raise HttpError(
+            400, f"unknown executor {executor!r}; expected sql, networkx, memory or sparql"
+        )
     if not isinstance(explain, bool):
         raise HttpError(400, f'"explain" is true or false, got {explain!r}')
     scene = app.scene(params["scene_id"])

@@ -1,8 +1,8 @@
 """Fixtures of the query tests: one factory per execution backend.
 
 A factory takes a :class:`SceneGraph` and returns an executor over it: the networkx
-reference in memory, SQL on a SQLite or PostgreSQL store (the graph saved into it first),
-or SPARQL on an rdflib or Oxigraph store of its RDF view.
+reference, the memory executor (plain dicts), SQL on a SQLite or PostgreSQL store (the
+graph saved into it first), or SPARQL on an rdflib or Oxigraph store of its RDF view.
 """
 
 from __future__ import annotations
@@ -15,6 +15,7 @@ import pytest
 from graph_store.repository import GraphStore, open_store
 from graph_store.types import SceneGraph
 from queries import Executor
+from queries.memory_executor import MemoryExecutor
 from queries.networkx_executor import NetworkxExecutor
 from queries.sparql_executor import SparqlExecutor
 from queries.sql_executor import SqlExecutor
@@ -22,13 +23,21 @@ from queries.sql_executor import SqlExecutor
 MakeExecutor = Callable[[SceneGraph], Executor]
 
 #: Every backend but the reference.
-BACKENDS = ["sqlite", pytest.param("postgres", marks=pytest.mark.postgres), "rdflib", "oxigraph"]
+BACKENDS = [
+    "memory",
+    "sqlite",
+    pytest.param("postgres", marks=pytest.mark.postgres),
+    "rdflib",
+    "oxigraph",
+]
 
 
 def _factory(name: str, store: GraphStore | None) -> MakeExecutor:
     def make(graph: SceneGraph) -> Executor:
         if name == "networkx":
             return NetworkxExecutor(graph)
+        if name == "memory":
+            return MemoryExecutor(graph)
         if name in ("rdflib", "oxigraph"):
             return SparqlExecutor.from_graph(graph, name)
         assert store is not None

@@ -1,6 +1,6 @@
 """The executors agree: random valid programs over random scene graphs give equal results
-(answer, every step's set, support paths) on networkx, SQL (SQLite, PostgreSQL) and SPARQL
-(rdflib, Oxigraph)."""
+(answer, every step's set, support paths) on networkx, in plain dicts (memory), SQL (SQLite,
+PostgreSQL) and SPARQL (rdflib, Oxigraph)."""
 
 from __future__ import annotations
 

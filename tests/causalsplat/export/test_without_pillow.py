@@ -1,4 +1,4 @@
-"""Without the field extra (no pillow), the figure and the answer masks say what to install,
+"""Without the build extra (no pillow), the figure and the answer masks say what to install,
 and a scene stored from objects is refused as not built before pillow is needed."""
 
 from __future__ import annotations
@@ -26,8 +26,8 @@ def kitchen() -> SceneGraph:
 
 
 @pytest.mark.usefixtures("no_pillow")
-def test_the_figure_names_the_field_extra(kitchen: SceneGraph, tmp_path: Path) -> None:
-    with pytest.raises(MissingDependencyError, match=r"pip install 'causalsplat\[field\]'"):
+def test_the_figure_names_the_build_extra(kitchen: SceneGraph, tmp_path: Path) -> None:
+    with pytest.raises(MissingDependencyError, match=r"pip install 'causalsplat\[build\]'"):
         draw_scene_graph(kitchen, tmp_path / "kitchen.png")
     assert not (tmp_path / "kitchen.png").exists()
 
@@ -41,6 +41,6 @@ def test_masks_of_a_scene_from_objects_are_refused_first(
 
 
 @pytest.mark.usefixtures("no_pillow")
-def test_masks_name_the_field_extra(kitchen: SceneGraph, tmp_path: Path) -> None:
-    with pytest.raises(MissingDependencyError, match=r"pip install 'causalsplat\[field\]'"):
+def test_masks_name_the_build_extra(kitchen: SceneGraph, tmp_path: Path) -> None:
+    with pytest.raises(MissingDependencyError, match=r"pip install 'causalsplat\[build\]'"):
         export_answer_masks(kitchen, None, [4], tmp_path / "masks", source=tmp_path)

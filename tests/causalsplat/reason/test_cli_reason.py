@@ -53,14 +53,15 @@ def test_errors_are_one_line(tiny_store: Store) -> None:
     assert unknown.exit_code == 0 and "nothing here fits" in unknown.output
 
 
-def test_cold_ask_does_not_import_torch(tiny_store: Store) -> None:
+def test_cold_ask_imports_neither_torch_nor_networkx(tiny_store: Store) -> None:
+    """The reasoner runs its programs on the memory executor (no networkx import)."""
     script = (
         "import sys\n"
         "from causalsplat.cli import main\n"
         f"sys.argv = ['causalsplat', 'ask', 'the blue stool', '--scene', 'synth-tiny-0',"
         f" '--db', {tiny_store.graph_store.url!r}, '--json']\n"
         "try:\n    main()\nexcept SystemExit:\n    pass\n"
-        "print('TORCH' if 'torch' in sys.modules else 'LIGHT')\n"
+        "print(*(m.upper() for m in ('torch', 'networkx') if m in sys.modules), 'LIGHT')\n"
     )
     proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
                           cwd=REPO_ROOT, check=True)  # fmt: skip

@@ -213,7 +213,7 @@ def test_backend_selection_and_fallback_without_numba(monkeypatch: pytest.Monkey
     assert _backend.resolve_backend(RasterConfig()) == "numpy"
     auto = build_contributors(scene, cam, cache=False)
     assert_same_contributors(auto, _build(scene, cam, RasterConfig(), "numpy"))
-    with pytest.raises(MissingDependencyError, match=r"pip install 'causalsplat\[field\]'"):
+    with pytest.raises(MissingDependencyError, match=r"pip install 'causalsplat\[build\]'"):
         _build(scene, cam, RasterConfig(), "numba")
 
 

@@ -30,7 +30,7 @@ from causalsplat.serve.splats import (
 from graph_store import Entity, SceneGraph, SceneMeta
 from tests.causalsplat.test_objects import KITCHEN
 
-pytest.importorskip("plyfile", reason="reading PLY needs the field extra")
+pytest.importorskip("plyfile", reason="reading PLY needs the build extra")
 
 N = 500
 
