@@ -172,6 +172,31 @@ class SceneTask:
 Progress = Callable[[str], None]
 
 
+#: Seconds to wait for a cluster's address to accept a connection before ``ray.init``.
+CONNECT_TIMEOUT_S = 5.0
+
+
+def check_ray_address(address: str, timeout: float = CONNECT_TIMEOUT_S) -> None:
+    """Raise :class:`BatchError` when ``address`` (``host:port`` or ``ray://host:port``)
+    accepts no TCP connection within ``timeout`` seconds: ``ray.init`` would keep trying
+    for minutes. ``local`` and ``auto`` (Ray finds the cluster itself) are not checked."""
+    import socket
+
+    if address in ("local", "auto"):
+        return
+    where = address.removeprefix("ray://")
+    host, sep, port = where.rpartition(":")
+    if not sep or not port.isdigit() or not host:
+        raise BatchError(f"--ray {address!r}: expected local, auto, HOST:PORT or ray://HOST:PORT")
+    try:
+        socket.create_connection((host.strip("[]"), int(port)), timeout=timeout).close()
+    except OSError as exc:
+        raise BatchError(
+            f"--ray {address}: nothing answers at {host}:{port} ({exc.strerror or exc}); "
+            "start a cluster there (ray start --head) or use --ray local"
+        ) from exc
+
+
 def build_many(
     folders: Sequence[str | Path],
     store_url: str,
@@ -218,6 +243,8 @@ def build_many(
     config = config or BuildConfig()
     paths = _check_folders(folders)
     ids = plan_scene_ids(paths)
+    if ray_address is not None:
+        check_ray_address(ray_address)  # before the store is touched
     store_url = str(as_url(store_url))
     store = _prepare_store(store_url)
     cores = _cores()

@@ -258,6 +258,17 @@ def _match_masks(root: Path, cameras: tuple[Camera, ...]) -> tuple[list[Camera],
             )
         by_stem[stem] = cam
     files = {p.stem for p in mask_dir.glob("*.npz")}
+    other = sorted(
+        p.name
+        for p in mask_dir.iterdir()
+        if p.suffix != ".npz" and p.stem in by_stem and p.stem not in files
+    )
+    if other:
+        raise SceneFolderFormatError(
+            f"{mask_dir}: {', '.join(other[:3])}{' ...' if len(other) > 3 else ''}: a build "
+            f"reads each view's masks from masks/<image stem>.npz; convert SAM JSON, COCO RLE "
+            f"or PNG masks with `causalsplat masks convert` (docs/formats.md)"
+        )
     unknown = sorted(files - by_stem.keys())
     if unknown:
         raise SceneFolderFormatError(

@@ -54,8 +54,26 @@ def read_images(path: Path) -> list[RawImage]:
             out.append(RawImage(int(f[0]), q, t, int(f[8]), " ".join(f[9:])))
         except ValueError as exc:
             raise ColmapFormatError(f"{path}:{lineno}: bad image line: {exc}") from exc
-        i += 2  # the next line holds the image's 2D points (possibly empty)
+        i += 1
+        if i < len(lines) and _is_points_line(lines[i][1]):
+            i += 1  # the image's 2D points (possibly an empty line)
     return out
+
+
+def _is_points_line(line: str) -> bool:
+    """Whether ``line`` is an image's POINTS2D line: empty, or (X, Y, POINT3D_ID) triples.
+
+    COLMAP writes one after every image line; some writers leave out the empty ones, and
+    then the next line is the next image's (its name is no number).
+    """
+    f = line.split()
+    if len(f) % 3:
+        return False
+    try:
+        [float(x) for x in f]
+    except ValueError:
+        return False
+    return True
 
 
 def read_points(path: Path) -> ColmapPoints:

@@ -189,6 +189,11 @@ class Projection(NamedTuple):
     depth: np.ndarray  #: (M,) float64, z in the camera frame (scene units); <= 0 is behind
 
 
+#: Focal lengths and principal points beyond this many times a camera's longer side (a field
+#: of view under 0.006 degree, a centre that far off the image) are refused as corrupt.
+MAX_INTRINSICS_PER_SIDE = 1e4
+
+
 @dataclass(frozen=True, slots=True, eq=False)
 class Camera:
     """A pinhole camera, OpenCV convention (x right, y down, z forward; see module docstring).
@@ -222,6 +227,14 @@ class Camera:
         intr = (self.fx, self.fy, self.cx, self.cy)
         if not all(np.isfinite(intr)) or self.fx <= 0 or self.fy <= 0:
             raise InvalidSceneError(f"Camera {self.name!r}: bad intrinsics {intr}")
+        side = max(int(self.width), int(self.height))
+        bound = MAX_INTRINSICS_PER_SIDE * side
+        if max(self.fx, self.fy, abs(self.cx), abs(self.cy)) > bound:
+            raise InvalidSceneError(
+                f"Camera {self.name!r}: intrinsics {intr} out of range: fx, fy must be in "
+                f"(0, {bound:g}] and |cx|, |cy| at most {bound:g} px ({MAX_INTRINSICS_PER_SIDE:g} "
+                f"times the image's longer side, {side} px)"
+            )
         T.setflags(write=False)
         object.__setattr__(self, "T_cam_world", T)
         object.__setattr__(self, "width", int(self.width))

@@ -64,6 +64,33 @@ def _good(folder: Path) -> str:
     return f"sqlite:///{folder / 'good.db'}"
 
 
+def _tiny(folder: Path) -> Path:
+    """A synthetic tiny scene folder under ``folder`` (cameras as COLMAP text)."""
+    from causalsplat.synth import synth_scene
+
+    synth_scene("tiny", 0, folder / "tiny")
+    return folder / "tiny"
+
+
+def _masks_as_json(folder: Path) -> str:
+    scene = _tiny(folder)
+    first = sorted((scene / "masks").glob("*.npz"))[0]
+    first.unlink()
+    _write(first.with_suffix(".json"), '[{"segmentation": {"size": [4, 4], "counts": "0"}}]')
+    return str(scene)
+
+
+def _huge_focal(folder: Path) -> str:
+    scene = _tiny(folder)
+    cameras = next(scene.rglob("cameras.txt"))
+    lines = cameras.read_text().splitlines()
+    i = next(k for k, line in enumerate(lines) if line and not line.startswith("#"))
+    f = lines[i].split()
+    lines[i] = " ".join([*f[:4], "1e308", *f[5:]])
+    cameras.write_text("\n".join(lines) + "\n")
+    return str(scene)
+
+
 def _program_file(folder: Path, program: dict[str, object]) -> str:
     return str(_write(folder / "program.json", json.dumps(program)))
 
@@ -202,6 +229,15 @@ CASES = [
          "nested too deeply"),
     Case("export -o an existing folder",
          lambda f: ["export", "-o", str(f), "--db", _good(f)], "the output is a folder"),
+    Case("build: a view's masks as SAM JSON where the .npz belongs",
+         lambda f: ["build", _masks_as_json(f), "--no-cache", "--db", _good(f)],
+         "a build reads each view's masks from masks/<image stem>.npz"),
+    Case("build: cameras.txt with fx=1e308",
+         lambda f: ["build", _huge_focal(f), "--no-cache", "--db", _good(f)],
+         "out of range: fx, fy must be in (0,"),
+    Case("build-many --ray at an address where nothing listens",
+         lambda f: ["build-many", str(_tiny(f)), "--ray", "127.0.0.1:9", "--db",
+                    f"sqlite:///{f / 'new.db'}"], "nothing answers at 127.0.0.1:9"),
 ]  # fmt: skip
 
 

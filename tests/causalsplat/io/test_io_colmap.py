@@ -143,3 +143,15 @@ def test_corrupt_binary_files_raise_typed_errors(tmp_path: Path) -> None:
     (tmp_path / "points3D.bin").write_bytes(points[: len(points) // 2])
     with pytest.raises(ColmapFormatError, match=r"points3D.bin: truncated"):
         read_colmap_model(tmp_path)
+
+
+def test_images_without_their_empty_points_lines(tmp_path: Path) -> None:
+    """Some writers leave out the empty POINTS2D line of an image: every camera is kept."""
+    (tmp_path / "cameras.txt").write_text("1 PINHOLE 100 80 50 60 40 30\n")
+    (tmp_path / "images.txt").write_text(
+        "1 1 0 0 0 0 0 0 1 a.png\n2 1 0 0 0 0 0 1 1 b.png\n10 20 -1 11.5 2 7\n"
+        "3 1 0 0 0 0 0 2 1 c.png\n"
+    )
+    model = read_colmap_model(tmp_path)
+    assert [c.name for c in model.cameras] == ["a.png", "b.png", "c.png"]
+    assert model.image_ids == (1, 2, 3)
