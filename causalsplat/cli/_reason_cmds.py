@@ -256,7 +256,9 @@ def evaluate(
     """Accuracy and 3D mIoU of a reasoner over a queries file, per reasoning type.
 
     --json prints {"n", "accuracy", "miou", "by_type": {type: {"n", "accuracy", "miou"}},
-    "per_query": [...]}.
+    "per_query": [...], "instances"}; with --gt-labels, "instances" holds the stored
+    entities' quality against the GT instances as `build --json` reports it (mean best IoU,
+    AP50/AP25, PQ/SQ/RQ, split, merged, missed, extra), else null.
     """
     from causalsplat.api import open_store
 
@@ -281,6 +283,15 @@ def _print_report(report: Any) -> None:
         click.echo(
             f"  {qtype:<15} n={score.n:<4} accuracy {score.accuracy:.3f}  mIoU {score.miou:.3f}"
             f"  F1 {score.f1:.3f}"
+        )
+    if report.instances is not None:
+        from causalsplat.cli._build_cmd import panoptic_line
+
+        q = report.instances.to_json()
+        click.echo(
+            f"  entities vs GT labels: {q['n_pred']} for {q['n_gt']} GT instances, mean best "
+            f"IoU {q['mean_best_iou']:.3f}, AP50 {q['ap50']:.3f}, AP25 {q['ap25']:.3f}; "
+            f"{panoptic_line(q)}"
         )
     wrong = [o for o in report.per_query if not o.correct]
     for o in wrong:

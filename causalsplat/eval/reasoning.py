@@ -39,6 +39,7 @@ from queries.errors import QueryError
 if TYPE_CHECKING:
     import numpy as np
 
+    from causalsplat.instances.quality import InstanceQuality
     from causalsplat.reason.context import SceneContext
     from causalsplat.reason.reasoner import Reasoner
 
@@ -229,6 +230,9 @@ class EvalReport:
     overall: Score
     by_type: dict[str, Score]
     per_query: tuple[QueryOutcome, ...] = field(default=())
+    #: With GT labels: the stored entities against the GT instances, as ``build`` reports
+    #: it (mean best IoU, AP, PQ / SQ / RQ, split, merged, missed, extra).
+    instances: InstanceQuality | None = None
 
     @property
     def n(self) -> int:
@@ -255,6 +259,7 @@ class EvalReport:
             "errors": sum(o.error is not None for o in self.per_query),
             "by_type": {t: s.to_dict() for t, s in self.by_type.items()},
             "per_query": [o.to_dict() for o in self.per_query],
+            "instances": None if self.instances is None else self.instances.to_json(),
         }
 
 
@@ -326,6 +331,8 @@ def _evaluate_against_gt(
     gt_labels: np.ndarray,
 ) -> EvalReport:
     import numpy as np
+
+    from causalsplat.instances.quality import scene_quality
 
     labels = ctx.gaussian_labels()
     gt = np.asarray(gt_labels)
@@ -405,6 +412,7 @@ def _evaluate_against_gt(
         Score.of(outcomes),
         {t: s for t, s in by_type.items() if s.n},
         tuple(outcomes),
+        scene_quality(labels, gt),
     )
 
 

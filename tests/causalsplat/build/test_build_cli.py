@@ -44,6 +44,14 @@ def test_build_json_report_then_query_the_stored_scene(tiny_folder: Path, tmp_pa
     assert doc["n"] == len(queries) and 0 < doc["accuracy"] <= 1 and 0 < doc["miou"] <= 1
     wash = next(q for q in doc["per_query"] if q["correct"])
     assert set(wash["predicted"]) == set(wash["targets"])
+    # the entities' quality beside the answers': the same figures `build --json` reported
+    built = json.loads(run(*args, "--if-exists", "replace", "--json", db=db).stdout)["quality"]
+    for key in ("pq", "sq", "rq", "split", "merged", "missed", "extra", "mean_best_iou", "ap50"):
+        assert doc["instances"][key] == built[key], key
+    text = run("eval", str(tiny_folder / "queries.json"), "--scene", "synth-tiny-0",
+               "--gt-labels", gt, db=db).stdout  # fmt: skip
+    assert f"entities vs GT labels: {built['n_pred']} for {built['n_gt']} GT instances" in text
+    assert f"PQ {built['pq']:.3f}" in text
     without = run("eval", str(tiny_folder / "queries.json"), "--scene", "synth-tiny-0", db=db,
                   check=False)  # fmt: skip
     assert_one_line_error(without, "is not in scene")
