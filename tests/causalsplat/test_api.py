@@ -25,7 +25,7 @@ def test_scene_handles_lookups_sparql_and_export(tmp_path: Path) -> None:
         assert scene.find_entity(9) is None and scene.has_entity(0)
         rows = scene.sparql("SELECT ?a ?b WHERE { ?a csg:supported_by ?b }").rows
         assert [tuple(v.rsplit("/", 1)[1] for v in row) for row in rows] == [("1", "0")]
-        # Evidence terms in the query bring the evidence part of the view in.
+        # The view holds the export's triples, relation evidence included.
         assert scene.sparql(EVIDENCE_QUERY).rows == ((0.0,),)
         assert scene.sparql(EVIDENCE_QUERY, evidence=False).rows == ()
         ttl = tmp_path / "kitchen.ttl"

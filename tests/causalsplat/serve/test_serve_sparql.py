@@ -8,6 +8,7 @@ import io
 import json
 import subprocess
 import sys
+from pathlib import Path
 from typing import Any
 from urllib.parse import quote, urlencode
 
@@ -279,3 +280,26 @@ def test_a_query_past_its_time_is_stopped_with_503(store_url: str) -> None:
         assert "did not finish within 1.0 s" in reply.json()["error"]
         after = request(f"{server.url}sparql?{urlencode({'query': 'ASK { ?s ?p ?o }'})}")
         assert after.status == 200 and after.json()["boolean"] is True
+
+
+def test_the_endpoint_serves_the_triples_of_the_export(
+    endpoint: str, store_url: str, tmp_path: Path
+) -> None:
+    """Every triple of the Turtle export, relation evidence included, and no other: a query
+    with a variable predicate sees the evidence as one naming csg:hasEvidence does."""
+    out = tmp_path / "all.ttl"
+    subprocess.run(
+        [sys.executable, "-m", "causalsplat", "export", "--format", "turtle", "-o", str(out),
+         "--db", store_url], check=True, capture_output=True, cwd=REPO_ROOT,
+        timeout=COMMAND_TIMEOUT_S,
+    )  # fmt: skip
+    exported = rdflib.Graph().parse(out)
+    by_predicate: dict[str, int] = {}
+    for p in exported.predicates():
+        by_predicate[str(p)] = by_predicate.get(str(p), 0) + 1
+    # the fixture's server pages at 50 rows: the triples are compared per predicate
+    query = "SELECT ?p (COUNT(*) AS ?n) WHERE { ?s ?p ?o } GROUP BY ?p"
+    rows = _wrapper(endpoint, query, JSON).query().convert()["results"]["bindings"]
+    served = {r["p"]["value"]: int(r["n"]["value"]) for r in rows}
+    assert served == by_predicate
+    assert any(p.endswith("#hasEvidence") for p in served)
