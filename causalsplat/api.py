@@ -239,6 +239,8 @@ class Store:
         timeout_s: float = 30.0,
         backend: SparqlBackend = "auto",
         evidence: bool = True,
+        default_graphs: Sequence[str] | None = None,
+        named_graphs: Sequence[str] | None = None,
     ) -> SparqlResult:
         """Read-only SPARQL over the RDF view of some scenes (all when ``scene_ids`` is None).
 
@@ -246,7 +248,10 @@ class Store:
         (``csg:RelationAssertion`` nodes and their ``csg:hasEvidence`` values); it is built
         once and reused while the scenes it holds are unchanged in the store.
         ``evidence=False`` leaves the assertion nodes out: a lighter view (about a sixth of
-        the triples of scene0000_00) on which evidence queries answer nothing.
+        the triples of scene0000_00) on which evidence queries answer nothing. Each scene is
+        a named graph (its scene IRI) and the default graph their union;
+        ``default_graphs`` / ``named_graphs`` replace the query's dataset
+        (:meth:`graph_store.rdf.RdfView.query`).
         """
         from graph_store.rdf import RdfView
 
@@ -264,7 +269,8 @@ class Store:
             view = self._views[key] = RdfView.from_graphs(
                 graphs, backend=backend, evidence=with_evidence
             )
-        return view.query(query, bindings=bindings, limit=limit, timeout_s=timeout_s)
+        return view.query(query, bindings=bindings, limit=limit, timeout_s=timeout_s,
+                          default_graphs=default_graphs, named_graphs=named_graphs)  # fmt: skip
 
     # -- questions across scenes -------------------------------------------------------
 

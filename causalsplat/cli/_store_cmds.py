@@ -246,7 +246,8 @@ def _export_built(
         click.echo(f"  and {len(paths) - len(shown)} more under {rest}")
 
 
-_SPARQL_FORMATS = ["json", "xml", "csv", "tsv", "turtle", "ntriples", "nt", "jsonld", "rdfxml"]
+_SPARQL_FORMATS = ["json", "xml", "csv", "tsv", "turtle", "ntriples", "nt", "jsonld", "rdfxml",
+                   "nquads", "trig", "n3"]  # fmt: skip
 
 
 def _parse_binding(text: str) -> tuple[str, Any]:

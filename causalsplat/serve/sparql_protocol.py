@@ -8,15 +8,19 @@ Requests (the three forms the protocol defines):
 * ``POST /sparql`` with ``Content-Type: application/sparql-query`` and the query as the
   body.
 
-The dataset is the union of the stored scenes' RDF views; ``scene=ID`` (repeatable, an
-extension) narrows it to some scenes. ``default-graph-uri`` / ``named-graph-uri`` are
-refused (400), as are updates (``update=`` or ``application/sparql-update``) and any query
-the read-only guard refuses (``INSERT``, ``LOAD``, ``SERVICE``, ``FROM``...): nothing in the
-store changes. The answer's format is chosen from ``Accept`` (q-values honoured): for
+The dataset holds each stored scene's RDF view (the triples of its Turtle export) as a
+named graph, the scene's IRI, and their union as the default graph; ``scene=ID``
+(repeatable, an extension) narrows it to some scenes. The query's ``FROM`` / ``FROM NAMED``
+choose among those graphs, and ``default-graph-uri`` / ``named-graph-uri`` (repeatable)
+replace the query's dataset, as the protocol says; nothing is ever loaded from elsewhere.
+Updates (``update=``, ``using-graph-uri``, ``application/sparql-update``) and any query the
+read-only guard refuses (``INSERT``, ``LOAD``, ``SERVICE``...) are answered 400: nothing in
+the store changes. The answer's format is chosen from ``Accept`` (q-values honoured): for
 SELECT and ASK the W3C SPARQL 1.1 Query Results JSON (the default), XML, CSV or TSV (CSV and
-TSV for SELECT only); for CONSTRUCT and DESCRIBE Turtle (the default), N-Triples, JSON-LD or
-RDF/XML. A ``format`` or ``output`` parameter naming one of these (``json``, ``xml``,
-``csv``, ``tsv``, ``turtle``, ``ntriples``, ``jsonld``, ``rdfxml``) takes precedence; 406
+TSV for SELECT only); for CONSTRUCT and DESCRIBE Turtle (the default), N-Triples, JSON-LD,
+RDF/XML, N-Quads, TriG or N3. A ``format`` or ``output`` parameter naming one of these
+(``json``, ``xml``, ``csv``, ``tsv``, ``turtle``, ``ntriples``, ``jsonld``, ``rdfxml``,
+``nquads``, ``trig``, ``n3``) takes precedence; 406
 when nothing acceptable exists. The app's row limit and timeout bound every query: a
 query giving more rows than the limit is refused with 400 naming the limit and how to page
 (LIMIT/OFFSET), never cut silently; a query past its time is stopped and
@@ -56,6 +60,12 @@ _ACCEPTED = {
         "application/rdf+xml": "rdfxml",
         "application/xml": "rdfxml",
         "text/xml": "rdfxml",
+        "application/n-quads": "nquads",
+        "text/x-nquads": "nquads",
+        "application/trig": "trig",
+        "application/x-trig": "trig",
+        "text/n3": "n3",
+        "text/rdf+n3": "n3",
     },
 }
 _ACCEPTED["ask"] = {k: v for k, v in _ACCEPTED["select"].items() if v in ("json", "xml")}
@@ -141,13 +151,11 @@ def sparql(app: App, request: Request, params: dict[str, str]) -> Response:
     query_params = _query_params(request)
     if "update" in query_params:
         raise HttpError(400, "SPARQL updates are refused: the endpoint is read-only")
-    for name in ("default-graph-uri", "named-graph-uri", "using-graph-uri"):
+    for name in ("using-graph-uri", "using-named-graph-uri"):
         if name in query_params:
-            raise HttpError(
-                400,
-                f"{name} is not supported: queries run over the stored scenes' RDF view"
-                " (narrow it with scene=ID)",
-            )
+            raise HttpError(400, f"{name} belongs to SPARQL updates: the endpoint is read-only")
+    defaults = query_params.get("default-graph-uri")
+    named = query_params.get("named-graph-uri")
     queries = query_params.get("query", [])
     if len(queries) != 1:
         raise HttpError(400, "give exactly one query parameter (query=...)")
@@ -163,8 +171,10 @@ def sparql(app: App, request: Request, params: dict[str, str]) -> Response:
         raise HttpError(503, f"the endpoint is busy: no query slot within {app.timeout_s} s")
     try:
         result = app.store.sparql(
-            text, scene_ids=scene_ids, limit=app.limit, timeout_s=app.timeout_s
-        )
+            text, scene_ids=scene_ids, limit=app.limit, timeout_s=app.timeout_s,
+            default_graphs=defaults if defaults or named else None,
+            named_graphs=named if defaults or named else None,
+        )  # fmt: skip
     finally:
         app.sparql_lock.release()
     if result.truncated:

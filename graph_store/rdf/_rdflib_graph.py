@@ -8,12 +8,30 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
-from rdflib import RDF, RDFS, XSD, Graph, Literal, URIRef
+from rdflib import RDF, RDFS, XSD, Dataset, Graph, Literal, URIRef
 from rdflib.store import Store
 
 from graph_store.rdf import iris
 from graph_store.rdf.namespace import BOT, CSG, GEO, PREFIXES
 from graph_store.types import Entity, SceneGraph
+
+
+def to_rdflib_dataset(
+    graphs: SceneGraph | Iterable[SceneGraph],
+    *,
+    evidence: bool = True,
+    store: Store | None = None,
+) -> Dataset:
+    """An rdflib ``Dataset`` with each scene's RDF view in a named graph (the scene's IRI)
+    and their union as the default graph (``default_union``)."""
+    from graph_store.rdf.export import as_scene_list
+
+    ds = Dataset(store=store if store is not None else "default", default_union=True)
+    for prefix, ns in PREFIXES.items():
+        ds.bind(prefix, ns)
+    for scene in as_scene_list(graphs):
+        _add_scene(ds.graph(URIRef(iris.scene_iri(scene.scene_id))), scene, evidence)
+    return ds
 
 
 def to_rdflib_graph(

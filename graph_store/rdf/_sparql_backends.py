@@ -7,11 +7,18 @@ same typed terms (an IRI as ``str``, a blank node as ``"_:label"``, a literal as
 values, so their answers compare equal.
 
 * :class:`OxigraphBackend`: an in-memory pyoxigraph ``Store`` bulk-loaded from the
-  N-Triples writer; bindings go in as a ``VALUES`` block of escaped, typed terms placed
-  first in the WHERE pattern (pyoxigraph's SEP-0007 substitutions only accept projected
-  variables; they are used for queries without a WHERE pattern).
-* :class:`RdflibBackend`: an rdflib ``Graph`` on a memory store whose triple lookups stop
+  N-Triples writer, each scene into its named graph; bindings go in as a ``VALUES`` block
+  of escaped, typed terms placed first in the WHERE pattern (pyoxigraph's SEP-0007
+  substitutions only accept projected variables; they are used for queries without a
+  WHERE pattern).
+* :class:`RdflibBackend`: an rdflib ``Dataset`` on a memory store whose triple lookups stop
   the evaluation once its query is cancelled; bindings go in as ``initBindings``.
+
+The dataset is the same on both: each scene's triples in the named graph of the scene's IRI
+(:func:`~graph_store.rdf.iris.scene_iri`), and their union as the default graph unless the
+query names its own (``FROM`` / ``FROM NAMED``: the named graphs it selects, never a
+document loaded). On oxigraph a :data:`Selection` (the protocol's ``default-graph-uri`` and
+``named-graph-uri``) replaces the query's dataset.
 """
 
 from __future__ import annotations
@@ -26,7 +33,7 @@ from typing import Any
 from rdflib import BNode, Literal, URIRef, Variable
 from rdflib.plugins.stores.memory import Memory
 
-from graph_store.errors import SparqlError, SparqlSyntaxError
+from graph_store.errors import SparqlArgumentError, SparqlError, SparqlSyntaxError
 from graph_store.rdf._parse import RDF_LANG_STRING, Lit, Term
 from graph_store.rdf._sparql_guard import CheckedQuery, QueryKind
 from graph_store.rdf._sparql_text import inject_values
@@ -57,6 +64,10 @@ _BOOLEAN = _XSD + "boolean"
 _XSD_STRING = _XSD + "string"
 _INT_RE = re.compile(r"\s*[+-]?[0-9]+\s*\Z")
 GRAPH_COLUMNS = ("subject", "predicate", "object")
+
+#: A dataset given beside the query (the SPARQL protocol's ``default-graph-uri`` and
+#: ``named-graph-uri``): (default graph IRIs, named graph IRIs); ``None``: the query's own.
+Selection = tuple[tuple[str, ...], tuple[str, ...]] | None
 
 
 class QueryCancelled(BaseException):
@@ -114,15 +125,18 @@ class OxigraphBackend:
 
     name = "oxigraph"
 
-    def __init__(self, ntriples: str) -> None:
+    def __init__(self, scenes: Iterable[tuple[str, str]]) -> None:
+        """``scenes``: (graph IRI, N-Triples text) of each scene."""
         import pyoxigraph as ox
 
         self._ox = ox
         self._named, self._literal, self._blank = ox.NamedNode, ox.Literal, ox.BlankNode
         self.store = ox.Store()
-        if ntriples:
-            # lenient: the text comes from our own writer, whose IRIs are percent-encoded
-            self.store.bulk_load(ntriples.encode("utf-8"), ox.RdfFormat.N_TRIPLES, lenient=True)
+        for graph, ntriples in scenes:
+            if ntriples:
+                # lenient: the text comes from our own writer, whose IRIs are percent-encoded
+                self.store.bulk_load(ntriples.encode("utf-8"), ox.RdfFormat.N_TRIPLES,
+                                     to_graph=ox.NamedNode(graph), lenient=True)  # fmt: skip
 
     def __len__(self) -> int:
         return len(self.store)
@@ -155,9 +169,10 @@ class OxigraphBackend:
         bindings: Mapping[str, URIRef | Literal],
         limit: int,
         cancel: threading.Event,
+        selection: Selection = None,
     ) -> RawResult:
         try:
-            return self._run(query, bindings, limit, cancel)
+            return self._run(query, bindings, limit, cancel, selection)
         except SyntaxError as exc:
             raise SparqlSyntaxError(f"SPARQL syntax error: {exc}") from exc
         except (OSError, ValueError, RuntimeError, TypeError) as exc:
@@ -169,6 +184,7 @@ class OxigraphBackend:
         bindings: Mapping[str, URIRef | Literal],
         limit: int,
         cancel: threading.Event,
+        selection: Selection,
     ) -> RawResult:
         ox, value = self._ox, self._result_term
         text = inject_values(query.text, bindings) if bindings else query.text
@@ -176,7 +192,14 @@ class OxigraphBackend:
         if text is None:  # no WHERE pattern to put a VALUES block in
             text = query.text
             subs = {ox.Variable(k): self._term(v) for k, v in bindings.items()}
-        result: Any = self.store.query(text, prefixes=dict(PREFIXES), substitutions=subs)
+        dataset: dict[str, Any] = {}
+        if selection is not None:
+            default, named = selection
+            dataset = {"default_graph": [ox.NamedNode(g) for g in default],
+                       "named_graphs": [ox.NamedNode(g) for g in named]}  # fmt: skip
+        elif not query.dataset:
+            dataset = {"use_default_graph_as_union": True}
+        result: Any = self.store.query(text, prefixes=dict(PREFIXES), substitutions=subs, **dataset)
         if query.kind == "ask":
             return RawResult("ask", (), [], bool(result))
         if query.kind == "graph":
@@ -235,9 +258,9 @@ class RdflibBackend:
     name = "rdflib"
 
     def __init__(self, graphs: list[SceneGraph], *, evidence: bool) -> None:
-        from graph_store.rdf._rdflib_graph import to_rdflib_graph
+        from graph_store.rdf._rdflib_graph import to_rdflib_dataset
 
-        self.graph = to_rdflib_graph(graphs, evidence=evidence, store=_CancellableMemory())
+        self.graph = to_rdflib_dataset(graphs, evidence=evidence, store=_CancellableMemory())
 
     def __len__(self) -> int:
         return len(self.graph)
@@ -263,7 +286,13 @@ class RdflibBackend:
         bindings: Mapping[str, URIRef | Literal],
         limit: int,
         cancel: threading.Event,
+        selection: Selection = None,
     ) -> RawResult:
+        if selection is not None:
+            raise SparqlArgumentError(
+                "a dataset given beside the query (default-graph-uri, named-graph-uri) needs"
+                " the oxigraph engine; on rdflib, name it in the query (FROM, FROM NAMED)"
+            )
         value = self._result_term
         _cancel_flags.event = cancel
         try:

@@ -5,9 +5,10 @@ The text is parsed with rdflib's SPARQL 1.1 *query* grammar. Anything else is re
 * update requests (``INSERT``, ``DELETE``, ``LOAD``, ``CLEAR``, ``DROP``, ``CREATE``, ``ADD``,
   ``MOVE``, ``COPY``, ``WITH``): :class:`SparqlForbiddenError`;
 * ``SERVICE`` anywhere (it calls a remote endpoint): :class:`SparqlForbiddenError`;
-* dataset clauses ``FROM`` / ``FROM NAMED`` (they can fetch remote documents):
-  :class:`SparqlForbiddenError`;
 * text that is not a query: :class:`SparqlSyntaxError` with the parser's position.
+
+Dataset clauses (``FROM`` / ``FROM NAMED``) are admitted: they select among the view's
+named graphs (one per scene) and never load a document (both engines are told not to).
 """
 
 from __future__ import annotations
@@ -35,13 +36,15 @@ class CheckedQuery:
 
     ``text``: the text as given; ``kind``: select / ask / graph (CONSTRUCT and DESCRIBE);
     ``select_all``: a ``SELECT *`` (its columns are then returned sorted by name);
-    ``prepared``: rdflib's translated query (algebra), with the standard prefixes.
+    ``prepared``: rdflib's translated query (algebra), with the standard prefixes;
+    ``dataset``: the query names its dataset (``FROM`` / ``FROM NAMED``).
     """
 
     text: str
     kind: QueryKind
     select_all: bool
     prepared: Any
+    dataset: bool = False
 
 
 #: The deepest nesting of ``{}``, ``()`` and ``[]`` read at all. rdflib's parser recurses
@@ -103,11 +106,6 @@ def check_query(text: str) -> CheckedQuery:
     except RecursionError:  # a nesting the bound above let through, in another form
         raise SparqlSyntaxError("the query is nested too deeply to be read") from None
     body = parsed[1]
-    if "datasetClause" in body:
-        raise SparqlForbiddenError(
-            "FROM / FROM NAMED dataset clauses are refused: queries run over the scenes' RDF"
-            " view only and never load other graphs"
-        )
     if _contains_service(parsed):
         raise SparqlForbiddenError("SERVICE clauses are refused: queries never leave this process")
     try:
@@ -124,7 +122,8 @@ def check_query(text: str) -> CheckedQuery:
     else:
         kind = "graph"
     select_all = kind == "select" and "projection" not in body
-    return CheckedQuery(text=text, kind=kind, select_all=select_all, prepared=prepared)
+    return CheckedQuery(text=text, kind=kind, select_all=select_all, prepared=prepared,
+                        dataset="datasetClause" in body)  # fmt: skip
 
 
 def _refuse_update(text: str) -> None:

@@ -26,7 +26,7 @@ from rdflib import Literal as RdfLiteral
 from rdflib import URIRef
 
 from graph_store.errors import SparqlError, SparqlResourceError, SparqlTimeoutError
-from graph_store.rdf._sparql_backends import RawResult
+from graph_store.rdf._sparql_backends import RawResult, Selection
 from graph_store.rdf._sparql_guard import CheckedQuery, check_query
 
 Terms = Mapping[str, URIRef | RdfLiteral]
@@ -34,7 +34,12 @@ Terms = Mapping[str, URIRef | RdfLiteral]
 
 class Backend(Protocol):
     def run(
-        self, query: CheckedQuery, bindings: Terms, limit: int, cancel: threading.Event
+        self,
+        query: CheckedQuery,
+        bindings: Terms,
+        limit: int,
+        cancel: threading.Event,
+        selection: Selection = None,
     ) -> RawResult: ...
 
 
@@ -76,14 +81,16 @@ class QueryWorker:
         self._conn: Any = None
         self._finalizer: weakref.finalize[Any, Any] | None = None
 
-    def run(self, text: str, terms: Terms, limit: int, timeout_s: float) -> RawResult:
+    def run(
+        self, text: str, terms: Terms, limit: int, timeout_s: float, selection: Selection = None
+    ) -> RawResult:
         deadline = time.monotonic() + timeout_s
         if not self._lock.acquire(timeout=timeout_s):
             raise SparqlTimeoutError(f"the SPARQL query did not finish within {timeout_s} s")
         try:
             if self._process is None or not self._process.is_alive():
                 self._start()
-            self._conn.send((text, dict(terms), limit))
+            self._conn.send((text, dict(terms), limit, selection))
             if not self._conn.poll(max(0.0, deadline - time.monotonic())):
                 self.close()
                 raise SparqlTimeoutError(f"the SPARQL query did not finish within {timeout_s} s")
@@ -191,12 +198,12 @@ def _serve(
         pass  # no /proc or no permission: the inherited limits hold
     while True:
         try:
-            text, terms, limit = conn.recv()
+            text, terms, limit, selection = conn.recv()
         except (EOFError, OSError):
             return
         try:
             message: tuple[str, Any] = (
-                "ok", backend.run(check_query(text), terms, limit, threading.Event())
+                "ok", backend.run(check_query(text), terms, limit, threading.Event(), selection)
             )  # fmt: skip
         except MemoryError:
             message = ("memory", None)

@@ -6,7 +6,9 @@ r"""W3C documents of SPARQL results: the SPARQL 1.1 Query Results formats and RD
   (``text/tab-separated-values``: terms in SPARQL syntax, lossless). The standard gives
   ASK no CSV or TSV form.
 * CONSTRUCT and DESCRIBE: the graph as Turtle (with the standard prefixes), N-Triples,
-  JSON-LD (:mod:`graph_store.rdf._jsonld`) or RDF/XML (through rdflib).
+  JSON-LD (:mod:`graph_store.rdf._jsonld`), RDF/XML (through rdflib), or the graph as the
+  default graph of N-Quads, TriG or N3 (whose syntaxes take N-Triples and Turtle as they
+  are).
 
 Every writer works from the result's typed terms (:attr:`SparqlResult.terms`), so an IRI
 and a string that spells one stay apart, literals keep their datatype, language tag and
@@ -53,12 +55,15 @@ MEDIA_TYPES = {
     "ntriples": "application/n-triples",
     "jsonld": "application/ld+json",
     "rdfxml": "application/rdf+xml",
+    "nquads": "application/n-quads",
+    "trig": "application/trig; charset=utf-8",
+    "n3": "text/n3; charset=utf-8",
 }
 #: The formats of each kind of result, its default first.
 FORMATS_BY_KIND = {
     "select": ("json", "xml", "csv", "tsv"),
     "ask": ("json", "xml"),
-    "graph": ("turtle", "ntriples", "jsonld", "rdfxml"),
+    "graph": ("turtle", "ntriples", "jsonld", "rdfxml", "nquads", "trig", "n3"),
 }
 _KIND_NAMES = {"select": "a SELECT", "ask": "an ASK", "graph": "a CONSTRUCT/DESCRIBE"}
 
@@ -89,9 +94,9 @@ def serialize_result(result: SparqlResult, format: str | None = None) -> str:
         )
     if result.kind == "graph":
         triples = [_triple(row) for row in result.terms]
-        if format == "turtle":
+        if format in ("turtle", "trig", "n3"):
             return _turtle(triples)
-        if format == "ntriples":
+        if format in ("ntriples", "nquads"):
             return "".join(_nt_line(t) for t in _relabelled(triples))
         if format == "jsonld":
             from graph_store.rdf._jsonld import jsonld_from_triples

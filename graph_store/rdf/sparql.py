@@ -5,9 +5,11 @@
 
 * The standard prefixes (``csg``, ``bot``, ``geo``, ``rdf``, ``rdfs``, ``xsd``, ``owl``) are
   predeclared; ``PREFIX`` lines in the query take precedence.
-* Only queries run (SELECT, ASK, CONSTRUCT, DESCRIBE). Updates, ``SERVICE`` and
-  ``FROM``/``FROM NAMED`` are refused with :class:`SparqlForbiddenError` before anything is
-  evaluated, on both engines, so a query never opens a network connection.
+* Only queries run (SELECT, ASK, CONSTRUCT, DESCRIBE). Updates and ``SERVICE`` are
+  refused with :class:`SparqlForbiddenError` before anything is evaluated, on both engines,
+  so a query never opens a network connection.
+* Each scene is a named graph (its scene IRI), the default graph their union; ``FROM`` /
+  ``FROM NAMED`` select among them and load nothing (:meth:`RdfView.query`).
 * User values go in through ``bindings`` (typed RDF terms), never into the query text.
 * ``limit`` bounds the rows consumed; ``timeout_s`` bounds the evaluation. On Linux the
   query is evaluated in a forked worker process (it shares the view's memory copy-on-write,
@@ -29,7 +31,7 @@ import numbers
 import re
 import sys
 import threading
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Literal, Protocol
 
@@ -48,15 +50,20 @@ from graph_store.rdf._sparql_backends import (
     QueryCancelled,
     RawResult,
     RdflibBackend,
+    Selection,
     term_value,
 )
 from graph_store.rdf._sparql_guard import CheckedQuery, QueryKind, check_query, query_variables
 from graph_store.rdf._sparql_text import render_term
 from graph_store.rdf._sparql_worker import QueryWorker, can_isolate, default_budget
+from graph_store.rdf.iris import scene_iri
 from graph_store.types import SceneGraph
 
 BackendName = Literal["auto", "oxigraph", "rdflib"]
-ResultFormat = Literal["json", "xml", "csv", "tsv", "turtle", "ntriples", "jsonld", "rdfxml"]
+ResultFormat = Literal[
+    "json", "xml", "csv", "tsv", "turtle", "ntriples", "jsonld", "rdfxml", "nquads", "trig", "n3"
+]
+_ABSOLUTE_IRI_RE = re.compile(r"[A-Za-z][A-Za-z0-9+.-]*:[^\s<>\"{}|\\^`]*\Z")
 _VARNAME_RE = re.compile(r"[^\W][\w\u00b7\u0300-\u036f\u203f\u2040]*\Z")
 
 
@@ -122,6 +129,7 @@ class _Backend(Protocol):
         bindings: Mapping[str, URIRef | RdfLiteral],
         limit: int,
         cancel: threading.Event,
+        selection: Selection = None,
     ) -> RawResult: ...
 
 
@@ -156,8 +164,11 @@ class RdfView:
                     "the oxigraph SPARQL backend needs pyoxigraph: pip install pyoxigraph"
                     " (or use backend='rdflib')"
                 )
-            text = "".join(iter_chunks(items, turtle=False, evidence=evidence))
-            return cls(OxigraphBackend(text), ids)
+            scenes = (
+                (scene_iri(g.scene_id), "".join(iter_chunks([g], turtle=False, evidence=evidence)))
+                for g in items
+            )
+            return cls(OxigraphBackend(scenes), ids)
         if backend == "rdflib":
             return cls(RdflibBackend(items, evidence=evidence), ids)
         raise ValueError(f"unknown SPARQL backend {backend!r}; expected oxigraph, rdflib or auto")
@@ -181,8 +192,18 @@ class RdfView:
         on_limit: Literal["truncate", "error"] = "truncate",
         memory_mb: int | None = None,
         isolate: bool | None = None,
+        default_graphs: Sequence[str] | None = None,
+        named_graphs: Sequence[str] | None = None,
     ) -> SparqlResult:
         """Run one read-only SPARQL query.
+
+        The dataset: each scene's triples in the named graph of its IRI
+        (:func:`~graph_store.rdf.iris.scene_iri`, so ``GRAPH ?g`` ranges over scenes), their
+        union as the default graph; a query's ``FROM`` / ``FROM NAMED`` choose among those
+        graphs (nothing is loaded). ``default_graphs`` / ``named_graphs`` (graph IRIs, the
+        protocol's ``default-graph-uri`` / ``named-graph-uri``; oxigraph only) replace the
+        query's dataset: the default graph is the merge of ``default_graphs`` (empty when
+        only ``named_graphs`` is given) and ``GRAPH`` sees ``named_graphs`` only.
 
         ``bindings``: variable name (with or without ``?``) to value: ``str`` binds a plain
         literal, ``int``/``float``/``bool`` (and numpy scalars) typed literals, ``rdflib.URIRef`` or
@@ -207,6 +228,7 @@ class RdfView:
         ):
             raise SparqlArgumentError(f"memory_mb must be an integer >= 16, got {memory_mb!r}")
         checked = check_query(text)
+        selection = _selection(default_graphs, named_graphs)
         terms = {_var_name(k): to_rdf_term(k, v) for k, v in (bindings or {}).items()}
         names = query_variables(checked)
         unused = sorted(set(terms) - names)
@@ -224,9 +246,9 @@ class RdfView:
                 if self._worker is not None:
                     self._worker.close()
                 self._worker = QueryWorker(self._backend, budget)
-            raw = self._worker.run(checked.text, terms, limit, timeout_s)
+            raw = self._worker.run(checked.text, terms, limit, timeout_s, selection)
         else:
-            raw = self._run_with_timeout(checked, terms, limit, timeout_s)
+            raw = self._run_with_timeout(checked, terms, limit, timeout_s, selection)
         truncated = len(raw.rows) > limit
         if truncated and on_limit == "error":
             raise SparqlRowLimitError(f"the query gives more than {limit} rows (limit={limit})")
@@ -246,13 +268,14 @@ class RdfView:
         terms: Mapping[str, URIRef | RdfLiteral],
         limit: int,
         timeout_s: float,
+        selection: Selection = None,
     ) -> RawResult:
         cancel = threading.Event()
         outcome: list[RawResult | BaseException] = []
 
         def work() -> None:
             try:
-                outcome.append(self._backend.run(checked, terms, limit, cancel))
+                outcome.append(self._backend.run(checked, terms, limit, cancel, selection))
             except QueryCancelled:
                 pass
             except BaseException as exc:  # handed to the caller's thread
@@ -276,12 +299,30 @@ def query_kind(text: str) -> QueryKind:
     """What ``text`` asks for: ``"select"``, ``"ask"`` or ``"graph"`` (CONSTRUCT, DESCRIBE).
 
     Admits the text as :meth:`RdfView.query` does, so it raises the same errors for
-    updates, ``SERVICE``, ``FROM`` and syntax errors, before any view is built.
+    updates, ``SERVICE`` and syntax errors, before any view is built.
 
     >>> query_kind("CONSTRUCT { ?s ?p ?o } WHERE { ?s ?p ?o }")
     'graph'
     """
     return check_query(text).kind
+
+
+def _selection(
+    default_graphs: Sequence[str] | None, named_graphs: Sequence[str] | None
+) -> Selection:
+    """The dataset given beside a query, its IRIs checked; ``None`` when neither is given."""
+    if default_graphs is None and named_graphs is None:
+        return None
+    out = []
+    for name, iris_ in (("default_graphs", default_graphs), ("named_graphs", named_graphs)):
+        if isinstance(iris_, str):
+            raise SparqlArgumentError(f"{name} is a list of graph IRIs, not one string")
+        items = tuple(iris_ or ())
+        for iri in items:
+            if not isinstance(iri, str) or not _ABSOLUTE_IRI_RE.match(iri):
+                raise SparqlArgumentError(f"{name}: {iri!r} is not an absolute IRI")
+        out.append(items)
+    return (out[0], out[1])
 
 
 def _var_name(name: object) -> str:

@@ -22,6 +22,7 @@ from SPARQLWrapper.SPARQLExceptions import QueryBadFormed
 
 from causalsplat import open_store
 from causalsplat.serve import App, Server
+from graph_store.rdf.iris import scene_iri
 from tests.causalsplat.serve._client import request
 from tests.conftest import COMMAND_TIMEOUT_S, REPO_ROOT
 
@@ -226,7 +227,8 @@ def test_updates_are_refused_and_change_nothing(endpoint: str, base_url: str) ->
         ({"query": "SELECT ?x WHERE { ?x"}, 400, "syntax"),
         ({"query": "SELECT * WHERE { SERVICE <http://127.0.0.1:9/> { ?s ?p ?o } }"}, 400,
          "SERVICE"),
-        ({"query": COUNT_TRIPLES, "default-graph-uri": "urn:g"}, 400, "default-graph-uri"),
+        ({"query": COUNT_TRIPLES, "using-graph-uri": "urn:g"}, 400, "using-graph-uri"),
+        ({"query": COUNT_TRIPLES, "default-graph-uri": "not an iri"}, 400, "absolute IRI"),
         ({"query": COUNT_TRIPLES, "scene": "nope"}, 404, "no scene 'nope'"),
     ],
 )  # fmt: skip
@@ -303,3 +305,53 @@ def test_the_endpoint_serves_the_triples_of_the_export(
     served = {r["p"]["value"]: int(r["n"]["value"]) for r in rows}
     assert served == by_predicate
     assert any(p.endswith("#hasEvidence") for p in served)
+
+
+def _count(endpoint: str, params: list[tuple[str, str]]) -> int:
+    query = urlencode([("query", COUNT_TRIPLES), *params])
+    body = json.loads(request(f"{endpoint}?{query}").body)
+    return int(body["results"]["bindings"][0]["n"]["value"])
+
+
+def test_scenes_are_named_graphs_and_the_protocol_dataset_selects_them(
+    endpoint: str, store_url: str
+) -> None:
+    with open_store(store_url, create=False) as store:
+        ids = sorted(s.scene_id for s in store.scenes())
+    graphs = [scene_iri(s) for s in ids]
+    per_graph = "SELECT ?g (COUNT(*) AS ?n) WHERE { GRAPH ?g { ?s ?p ?o } } GROUP BY ?g"
+    rows = _wrapper(endpoint, per_graph, JSON).query().convert()["results"]["bindings"]
+    sizes = {r["g"]["value"]: int(r["n"]["value"]) for r in rows}
+    assert sorted(sizes) == sorted(graphs)
+    total = _count(endpoint, [])
+    assert total == sum(sizes.values())
+    one = graphs[0]
+    assert _count(endpoint, [("default-graph-uri", one)]) == sizes[one]
+    assert _count(endpoint, [("default-graph-uri", g) for g in graphs]) == total
+    assert _count(endpoint, [("named-graph-uri", one)]) == 0  # an empty default graph
+    from_query = f"SELECT (COUNT(*) AS ?n) FROM <{one}> WHERE {{ ?s ?p ?o }}"
+    rows = _wrapper(endpoint, from_query, JSON).query().convert()["results"]["bindings"]
+    assert int(rows[0]["n"]["value"]) == sizes[one]
+    # rdflib's SPARQLStore with a graph identifier sends it as default-graph-uri
+    graph = rdflib.Graph(store=SPARQLStore(endpoint), identifier=rdflib.URIRef(one))  # type: ignore[arg-type]
+    assert int(next(iter(graph.query(COUNT_TRIPLES)))[0]) == sizes[one]  # type: ignore[index]
+    assert len(graph) == sizes[one]
+
+
+@pytest.mark.parametrize(
+    ("fmt", "media"),
+    [("nquads", "application/n-quads"), ("trig", "application/trig"), ("n3", "text/n3")],
+)
+def test_construct_in_quad_and_n3_syntaxes(
+    endpoint: str, store_url: str, fmt: str, media: str
+) -> None:
+    reference = rdflib.Graph().parse(data=cli(CONSTRUCT, "--format", "nt", db=store_url),
+                                     format="nt")  # fmt: skip
+    for how in ({"format": fmt}, {}):
+        query = urlencode({"query": CONSTRUCT, **how})
+        response = request(f"{endpoint}?{query}", headers={"Accept": media})
+        assert response.headers["content-type"].startswith(media)
+        parsed = rdflib.Dataset()
+        parsed.parse(data=response.body.decode(), format=fmt)
+        assert isomorphic(rdflib.Graph().parse(data=parsed.serialize(format="nt"), format="nt"),
+                          reference)  # fmt: skip
