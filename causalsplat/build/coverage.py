@@ -113,3 +113,45 @@ def _covered_pixels(
     padded[:h, :w] = union
     per_cell = padded.reshape(gh, cell, gw, cell).sum(axis=(1, 3))
     return int(per_cell[near].sum()), int(per_cell.sum())
+
+
+#: The near plane a build uses is at most this share of the Gaussians' median distance
+#: from the cameras, so a scene in millimetres or kilometres is seen as one in metres is
+#: (a room 4 m across, 2 m from its cameras, keeps the default 0.01).
+NEAR_SHARE = 0.005
+
+
+def median_depth(
+    means: np.ndarray, cameras: Sequence[Camera], *, max_points: int = 20_000
+) -> float | None:
+    """The median camera-frame depth of the Gaussian centres in front of each camera and
+    inside its image, over all cameras (a sample of at most ``max_points`` centres);
+    ``None`` when no camera sees any."""
+    n = int(means.shape[0])
+    stride = max(1, math.ceil(n / max_points))
+    sample = np.asarray(means[::stride], dtype=np.float64)
+    depths = []
+    for cam in cameras:
+        p = cam.project(sample)
+        px, py = p.pixels[:, 0], p.pixels[:, 1]
+        inside = (p.depth > 0) & (px >= 0) & (px < cam.width) & (py >= 0) & (py < cam.height)
+        depths.append(p.depth[inside])
+    found = np.concatenate(depths) if depths else np.zeros(0)
+    return float(np.median(found)) if found.size else None
+
+
+def scene_near(near: float, depth: float | None) -> float:
+    """The near plane for a scene whose Gaussians lie a median ``depth`` from its cameras:
+    ``near``, or :data:`NEAR_SHARE` of ``depth`` when that is smaller."""
+    if depth is None or not math.isfinite(depth) or depth <= 0:
+        return near
+    return min(near, NEAR_SHARE * depth)
+
+
+def position_resolution(means: np.ndarray, log_scales: np.ndarray) -> tuple[float, float, float]:
+    """(the largest coordinate of the Gaussians, the float32 spacing there, their median
+    size): positions rounded coarsely relative to the Gaussians themselves no longer
+    describe the scene."""
+    far = float(np.max(np.abs(means))) if means.size else 0.0
+    size = float(np.median(np.exp(np.max(log_scales, axis=1)))) if log_scales.size else 0.0
+    return far, float(np.spacing(np.float32(far))), size

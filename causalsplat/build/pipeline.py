@@ -21,6 +21,7 @@ names the folder and the stage, chained to the original, and nothing is stored.
 
 from __future__ import annotations
 
+import dataclasses
 import resource
 import sys
 import time
@@ -34,7 +35,13 @@ import numpy as np
 
 from causalsplat.build.cache import StageCache, cache_key, default_cache_dir, pack_csr, unpack_csr
 from causalsplat.build.config import BuildConfig
-from causalsplat.build.coverage import Coverage, measure_coverage
+from causalsplat.build.coverage import (
+    Coverage,
+    measure_coverage,
+    median_depth,
+    position_resolution,
+    scene_near,
+)
 from causalsplat.build.errors import BuildError, CoverageError, StageError
 from causalsplat.build.folder import SceneFolder, find_view_image, read_scene_folder
 from causalsplat.build.huge_pages import huge_page_advice
@@ -229,6 +236,7 @@ def _build(
             folder, config.image_scale, config.memory_budget_bytes() // _MASK_SHARE
         )
         hashes = _result_hashes(folder)
+        config, near_note = _near_for_scale(folder, config)
         coverage = check_coverage(folder, config)
     result = config.result_json()  # less the speed-only options
     field_key = cache_key(
@@ -264,7 +272,7 @@ def _build(
     quality = None
     if folder.gt_labels is not None:
         quality = scene_quality(assignment.labels, folder.gt_labels)
-    warnings = []
+    warnings = [note for note in (near_note, _coarse_positions(folder)) if note is not None]
     if folder.distorted:
         warnings.append(
             f"lens distortion dropped (--allow-distortion): {'; '.join(folder.distorted)};"
@@ -291,6 +299,40 @@ def _build(
     )
 
 
+#: Coordinates rounded (float32) to more than this share of the Gaussians' median size are
+#: reported: the scene lies too far from the origin for its positions to hold its shapes.
+COARSE_POSITIONS = 0.1
+
+
+def _coarse_positions(folder: SceneFolder) -> str | None:
+    """A note when the Gaussians' float32 positions are rounded coarsely for their size."""
+    far, step, size = position_resolution(folder.gaussians.means, folder.gaussians.log_scales)
+    if size <= 0 or step <= COARSE_POSITIONS * size:
+        return None
+    return (
+        f"the Gaussians' float32 positions reach {far:.3g} units from the origin, where they"
+        f" are rounded to {step:.3g} units, against a median Gaussian size of {size:.3g}:"
+        " recentre the scene (subtract its centre from the positions and the camera"
+        " centres) before training and exporting it"
+    )
+
+
+def _near_for_scale(folder: SceneFolder, config: BuildConfig) -> tuple[BuildConfig, str | None]:
+    """``config`` with its near plane brought within the scene's scale
+    (:func:`~causalsplat.build.coverage.scene_near`), and a note when it was lowered."""
+    depth = median_depth(folder.gaussians.means, folder.cameras)
+    near = scene_near(config.raster.near, depth)
+    if near >= config.raster.near:
+        return config, None
+    note = (
+        f"raster.near lowered from {config.raster.near:g} to {near:.3g} scene units: the"
+        f" Gaussians lie a median {depth:.3g} units from the cameras (a scene in other units"
+        " than metres); set raster.near in the build config to choose it"
+    )
+    raster = dataclasses.replace(config.raster, near=near)
+    return dataclasses.replace(config, raster=raster), note
+
+
 def check_coverage(folder: SceneFolder, config: BuildConfig) -> Coverage:
     """Measure how the folder's cameras and masks meet its Gaussians; raise
     :class:`CoverageError` when a share is below the config's threshold."""
@@ -298,6 +340,9 @@ def check_coverage(folder: SceneFolder, config: BuildConfig) -> Coverage:
         folder.gaussians.means, folder.cameras, folder.masks, near=config.raster.near
     )
     if coverage.seen < config.min_seen or coverage.masked < config.min_masked:
+        coarse = _coarse_positions(folder)
+        if coarse is not None:
+            raise CoverageError(f"{folder.root}: {coarse}")
         raise CoverageError(
             f"{folder.root}: the PLY and the cameras do not look like one capture: the "
             f"{len(folder.cameras)} views see {coverage.seen:.1%} of the Gaussians (at least "
