@@ -308,8 +308,18 @@ def _query_text(path: Path) -> str:
 @click.option(
     "--format", "fmt", type=click.Choice(_SPARQL_FORMATS), default=None,
     help="W3C output: json, xml, csv, tsv (SELECT; json and xml for ASK); turtle, ntriples"
-    " (nt), jsonld, rdfxml (CONSTRUCT/DESCRIBE). Default: a plain table for SELECT,"
-    " true/false for ASK, Turtle for graphs.",
+    " (nt), jsonld, rdfxml, nquads, trig, n3 (CONSTRUCT/DESCRIBE). Default: a plain table"
+    " for SELECT, true/false for ASK, Turtle for graphs.",
+)  # fmt: skip
+@click.option(
+    "--default-graph", "default_graphs", multiple=True, metavar="IRI",
+    help="The default graph is the merge of these named graphs (repeatable; a scene's graph"
+    " is its IRI, https://w3id.org/causalsplat/scene/ID), as the protocol's"
+    " default-graph-uri; replaces the query's FROM (Oxigraph only).",
+)  # fmt: skip
+@click.option(
+    "--named-graph", "named_graphs", multiple=True, metavar="IRI",
+    help="GRAPH sees these named graphs only (repeatable), as the protocol's named-graph-uri.",
 )  # fmt: skip
 @db_option
 @click.option(
@@ -327,19 +337,22 @@ def sparql(
     timeout: float,
     backend: str,
     fmt: str | None,
+    default_graphs: tuple[str, ...],
+    named_graphs: tuple[str, ...],
     db_url: str,
     as_json: bool,
 ) -> None:
     """Run a read-only SPARQL query over the RDF view of stored scenes.
 
     QUERY is the query text ('-' reads stdin); or use --file. The prefixes csg:, bot:,
-    geo:, rdf:, rdfs:, xsd: and owl: are predeclared. Updates, LOAD, SERVICE and FROM
-    are refused. --json writes W3C SPARQL 1.1 Query Results JSON; CONSTRUCT and DESCRIBE
+    geo:, rdf:, rdfs:, xsd: and owl: are predeclared. Updates, LOAD and SERVICE are
+    refused. --json writes W3C SPARQL 1.1 Query Results JSON; CONSTRUCT and DESCRIBE
     write RDF (Turtle unless --format says).
 
     The query runs once over one dataset holding the chosen scenes (--scene, repeatable;
-    --scenes GLOB; --all-scenes, the default): bind ?scene bot:containsElement ?e to
-    tell the scenes apart.
+    --scenes GLOB; --all-scenes, the default): each scene is a named graph (its scene
+    IRI) and the default graph their union, so GRAPH ?g tells the scenes apart and FROM
+    picks some (nothing is loaded from elsewhere).
     """
     if (query is None) == (query_file is None):
         fail("give the query text or --file PATH (exactly one)")
@@ -365,9 +378,12 @@ def sparql(
             store.scene(sid)
         if pattern is not None:
             ids = list(store.scene_ids(pattern))
+        dataset = bool(default_graphs or named_graphs)
         result = store.sparql(
-            text, scene_ids=ids, bindings=bindings, limit=limit, timeout_s=timeout, backend=backend
-        )
+            text, scene_ids=ids, bindings=bindings, limit=limit, timeout_s=timeout,
+            backend=backend, default_graphs=list(default_graphs) if dataset else None,
+            named_graphs=list(named_graphs) if dataset else None,
+        )  # fmt: skip
     if as_json and fmt is None:
         fmt = "jsonld" if result.kind == "graph" else "json"
     if fmt is not None or result.kind == "graph":

@@ -314,9 +314,9 @@ def _selection(
     if default_graphs is None and named_graphs is None:
         return None
     out = []
-    for name, iris_ in (("default_graphs", default_graphs), ("named_graphs", named_graphs)):
+    for name, iris_ in (("default graph", default_graphs), ("named graph", named_graphs)):
         if isinstance(iris_, str):
-            raise SparqlArgumentError(f"{name} is a list of graph IRIs, not one string")
+            raise SparqlArgumentError(f"{name}s are a list of graph IRIs, not one string")
         items = tuple(iris_ or ())
         for iri in items:
             if not isinstance(iri, str) or not _ABSOLUTE_IRI_RE.match(iri):

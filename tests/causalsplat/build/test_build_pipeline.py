@@ -177,9 +177,7 @@ def test_scenes_in_millimetres_and_kilometres(tiny_folder: Path, tmp_path: Path,
         np.testing.assert_allclose(a.centroid, np.array(b.centroid) * factor, rtol=1e-3,
                                    atol=1e-6 * factor)  # fmt: skip
     default = build_scene(folder, config=FAST, cache_dir=False)
-    assert [e.category for e in default.graph.entities] == [
-        e.category for e in base.graph.entities
-    ]
+    assert [e.category for e in default.graph.entities] == [e.category for e in base.graph.entities]
     assert any(w.startswith("raster.near lowered") for w in default.warnings) == (factor < 1)
 
 

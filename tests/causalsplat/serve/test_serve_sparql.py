@@ -332,6 +332,9 @@ def test_scenes_are_named_graphs_and_the_protocol_dataset_selects_them(
     from_query = f"SELECT (COUNT(*) AS ?n) FROM <{one}> WHERE {{ ?s ?p ?o }}"
     rows = _wrapper(endpoint, from_query, JSON).query().convert()["results"]["bindings"]
     assert int(rows[0]["n"]["value"]) == sizes[one]
+    # the command line takes the same dataset
+    out = cli(COUNT_TRIPLES, "--default-graph", one, "--json", db=store_url)
+    assert int(json.loads(out)["results"]["bindings"][0]["n"]["value"]) == sizes[one]
     # rdflib's SPARQLStore with a graph identifier sends it as default-graph-uri
     graph = rdflib.Graph(store=SPARQLStore(endpoint), identifier=rdflib.URIRef(one))  # type: ignore[arg-type]
     assert int(next(iter(graph.query(COUNT_TRIPLES)))[0]) == sizes[one]  # type: ignore[index]

@@ -55,7 +55,7 @@ def test_a_dataset_beside_the_query_replaces_its_own() -> None:
     for bad in ("not an iri", "<urn:x>"):
         with pytest.raises(SparqlArgumentError, match="not an absolute IRI"):
             view.query(COUNT.format(""), default_graphs=[bad])
-    with pytest.raises(SparqlArgumentError, match="a list of graph IRIs"):
+    with pytest.raises(SparqlArgumentError, match="default graphs are a list of graph IRIs"):
         view.query(COUNT.format(""), default_graphs=IA)  # type: ignore[arg-type]
 
 
