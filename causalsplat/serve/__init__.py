@@ -8,8 +8,8 @@
 
 Layers: :class:`~causalsplat.serve.app.App` turns a :class:`Request` into a
 :class:`Response` through its route table and knows nothing of sockets;
-:class:`~causalsplat.serve.server.Server` is the standard library's threading HTTP server
-around it, listening on 127.0.0.1 unless told otherwise.
+:class:`~causalsplat.serve.server.Server` is Uvicorn around it (as a Starlette application,
+:mod:`causalsplat.serve.asgi`), listening on 127.0.0.1 unless told otherwise.
 
 >>> from causalsplat import open_store
 >>> from causalsplat.serve import App, Server

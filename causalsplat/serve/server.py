@@ -1,9 +1,13 @@
-"""The HTTP server around an :class:`~causalsplat.serve.app.App` (the standard library's).
+"""The HTTP server around an :class:`~causalsplat.serve.app.App`: Uvicorn, on Starlette.
 
-``http.server.ThreadingHTTPServer`` answers each connection on its own thread, which is
-what a local endpoint needs: a long SPARQL query does not hold up the viewer's requests.
-It listens on the loopback interface unless told otherwise: :func:`check_host` refuses
-any other address unless ``allow_remote`` is given, since the app has no authentication.
+Uvicorn speaks HTTP/1.1 (keep-alive, chunked bodies) on an event loop; the app's blocking
+handlers run on Starlette's thread pool (:mod:`causalsplat.serve.asgi`), so a long SPARQL
+query does not hold up the viewer's requests. A connection must send its request's headers
+within :data:`HEADER_TIMEOUT_S` and an idle one is closed after :data:`KEEP_ALIVE_S`, so
+connections that send nothing cannot use up the descriptors; the listen queue holds
+:data:`BACKLOG`. It listens on the loopback interface unless told otherwise:
+:func:`check_host` refuses any other address unless ``allow_remote`` is given, since the
+app has no authentication.
 
 >>> with Server(app, port=0) as server:                 # doctest: +SKIP
 ...     server.start()                                  # in a background thread
@@ -12,15 +16,15 @@ any other address unless ``allow_remote`` is given, since the app has no authent
 
 from __future__ import annotations
 
+import contextlib
 import ipaddress
 import socket
 import threading
-from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+import time
 from typing import Any, TextIO
-from urllib.parse import parse_qs, urlsplit
 
 from causalsplat.errors import CausalSplatError
-from causalsplat.serve.app import MAX_BODY_BYTES, App, Request, error_response
+from causalsplat.serve.app import App
 
 
 class ServeError(CausalSplatError):
@@ -92,74 +96,72 @@ def loopback_host_header(header: str | None, bound: str) -> bool:
         return False
 
 
-class _HTTPServer(ThreadingHTTPServer):
-    daemon_threads = True  # a request still running does not keep the process alive
-    app: App
-    log: TextIO | None
-    host: str
-    check_host_header: bool
+#: Seconds a connection may take to send a request's headers (from its opening, or from
+#: the end of its last response): a client that opens connections and sends nothing, or
+#: dribbles its headers, is cut off and holds no descriptor.
+HEADER_TIMEOUT_S = 10.0
+#: Seconds an idle keep-alive connection is kept open after a response.
+KEEP_ALIVE_S = 5
+#: Connections the kernel queues before they are accepted.
+BACKLOG = 2048
+#: Seconds the requests in flight get to finish after a stop is asked for.
+GRACE_S = 10
+#: The most bytes of request line and headers read.
+MAX_HEADER_BYTES = 64 * 1024
 
 
-class _Handler(BaseHTTPRequestHandler):
-    server: _HTTPServer
-    server_version = "causalsplat"
-    protocol_version = "HTTP/1.0"
+def _protocol() -> type[Any]:
+    """Uvicorn's h11 protocol with a deadline for each request's headers."""
+    import h11
+    from uvicorn.protocols.http.h11_impl import H11Protocol
 
-    def _answer(self) -> None:
-        app = self.server.app
-        parts = urlsplit(self.path)
-        if self.server.check_host_header and not loopback_host_header(
-            self.headers.get("Host"), self.server.host
-        ):
-            return self._send(
-                error_response(403, "this server answers requests to its loopback address only")
-            )
-        length_text = self.headers.get("Content-Length")
-        body = b""
-        if length_text is not None:
-            try:
-                length = int(length_text)
-            except ValueError:
-                length = -1
-            if length < 0:
-                return self._send(error_response(400, "Content-Length is not a byte count"))
-            if length > MAX_BODY_BYTES:
-                return self._send(
-                    error_response(413, f"the request body is over {MAX_BODY_BYTES} bytes")
-                )
-            body = self.rfile.read(length)
-        elif self.headers.get("Transfer-Encoding"):
-            return self._send(error_response(411, "send the body with a Content-Length"))
-        try:
-            query = parse_qs(parts.query, keep_blank_values=True, errors="strict")
-        except UnicodeDecodeError:
-            return self._send(error_response(400, "the URL's query string is not UTF-8"))
-        request = Request(
-            method=self.command,
-            path=parts.path,
-            query=query,
-            headers={k.lower(): v for k, v in self.headers.items()},
-            body=body,
-        )
-        self._send(app.handle(request))
+    class HeaderDeadline(H11Protocol):
+        _deadline: Any = None
 
-    def _send(self, response: Any) -> None:
-        self.send_response(response.status)
-        self.send_header("Content-Type", response.content_type)
-        self.send_header("Content-Length", str(len(response.body)))
-        for name, value in response.headers.items():
-            self.send_header(name, value)
-        self.end_headers()
-        if self.command != "HEAD":
-            self.wfile.write(response.body)
+        def _arm(self) -> None:
+            self._disarm()
+            self._deadline = self.loop.call_later(HEADER_TIMEOUT_S, self._expire)
 
-    do_GET = do_POST = do_HEAD = do_PUT = do_DELETE = do_PATCH = do_OPTIONS = _answer
+        def _disarm(self) -> None:
+            if self._deadline is not None:
+                self._deadline.cancel()
+                self._deadline = None
 
-    def log_message(self, format: str, *args: Any) -> None:
-        log = self.server.log
-        if log is not None:
-            log.write(f"{self.address_string()} - {format % args}\n")
-            log.flush()
+        def _expire(self) -> None:
+            self._deadline = None
+            if self.conn.their_state is h11.IDLE and not self.transport.is_closing():
+                self.transport.close()
+
+        def connection_made(self, transport: Any) -> None:
+            super().connection_made(transport)
+            self._arm()
+
+        def handle_events(self) -> None:
+            super().handle_events()
+            if self._deadline is not None and self.conn.their_state is not h11.IDLE:
+                self._disarm()  # a request's headers are in
+
+        def on_response_complete(self) -> None:
+            super().on_response_complete()
+            if not self.transport.is_closing():
+                self._arm()
+
+        def connection_lost(self, exc: Exception | None) -> None:
+            self._disarm()
+            super().connection_lost(exc)
+
+    return HeaderDeadline
+
+
+def _raise_descriptor_limit() -> None:
+    """Let this process hold as many connections as its hard limit allows."""
+    import resource
+
+    soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+    wanted = max(soft, 65536) if hard == resource.RLIM_INFINITY else hard
+    if soft < wanted:
+        with contextlib.suppress(ValueError, OSError):
+            resource.setrlimit(resource.RLIMIT_NOFILE, (wanted, hard))
 
 
 class Server:
@@ -190,53 +192,71 @@ class Server:
             family = infos[0][0]
         except (OSError, UnicodeError) as exc:
             raise ServeError(f"cannot listen on {host}: {exc}") from None
-
-        class Bound(_HTTPServer):
-            address_family = family
-
+        sock = socket.socket(family, socket.SOCK_STREAM)
         try:
-            self._httpd = Bound((host, port), _Handler)
+            sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            sock.bind((host, port))
+            sock.listen(BACKLOG)
         except OSError as exc:
+            sock.close()
             raise ServeError(f"cannot listen on {host}:{port}: {exc.strerror or exc}") from None
-        self._httpd.app = app
-        self._httpd.log = log
-        self._httpd.host = host
-        self._httpd.check_host_header = not allow_remote
+        _raise_descriptor_limit()
+        import uvicorn
+
+        from causalsplat.serve.asgi import asgi_app
+
+        def host_ok(header: str | None) -> bool:
+            return loopback_host_header(header, host)
+
+        asgi = asgi_app(app, host_ok=None if allow_remote else host_ok, log=log)
+        config = uvicorn.Config(
+            asgi, log_config=None, access_log=False, lifespan="off", http=_protocol(),
+            backlog=BACKLOG, timeout_keep_alive=KEEP_ALIVE_S, timeout_graceful_shutdown=GRACE_S,
+            h11_max_incomplete_event_size=MAX_HEADER_BYTES, server_header=False,
+            proxy_headers=False,
+        )  # fmt: skip
+        self._uvicorn = uvicorn.Server(config)
+        self._socket = sock
         self.app = app
         self._thread: threading.Thread | None = None
 
     @property
     def port(self) -> int:
         """The port listened on (the one picked, for port 0)."""
-        return int(self._httpd.server_address[1])
+        return int(self._socket.getsockname()[1])
 
     @property
     def url(self) -> str:
         """``http://HOST:PORT/`` (an IPv6 address in brackets)."""
-        host = str(self._httpd.server_address[0])
+        host = str(self._socket.getsockname()[0])
         if ":" in host:
             host = f"[{host}]"
         return f"http://{host}:{self.port}/"
 
     def serve_forever(self) -> None:
-        """Answer requests on this thread until :meth:`shutdown` (from another thread)."""
-        self._httpd.serve_forever(poll_interval=0.2)
+        """Answer requests on this thread until :meth:`shutdown` (from another thread), or,
+        on the main thread, until SIGINT or SIGTERM: requests in flight get
+        :data:`GRACE_S` seconds to finish, then the signal is raised again."""
+        self._uvicorn.run(sockets=[self._socket])
 
     def start(self) -> Server:
-        """Answer requests on a background thread; returns ``self``."""
+        """Answer requests on a background thread; returns ``self`` once it listens."""
         self._thread = threading.Thread(
             target=self.serve_forever, name="causalsplat-serve", daemon=True
         )
         self._thread.start()
+        while not self._uvicorn.started and self._thread.is_alive():
+            time.sleep(0.01)
         return self
 
     def shutdown(self) -> None:
-        """Stop answering and close the socket (requests in flight run on, on their threads)."""
+        """Stop answering (requests in flight get :data:`GRACE_S` seconds) and close the
+        socket."""
+        self._uvicorn.should_exit = True
         if self._thread is not None:
-            self._httpd.shutdown()
             self._thread.join()
             self._thread = None
-        self._httpd.server_close()
+        self._socket.close()
 
     def __enter__(self) -> Server:
         return self

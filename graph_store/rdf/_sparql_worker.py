@@ -180,11 +180,33 @@ def _die_with(parent: int, bound: bool) -> None:  # pragma: no cover - in the wo
     threading.Thread(target=watch, name="parent-watch", daemon=True).start()
 
 
+def _close_inherited_sockets(keep: int) -> None:  # pragma: no cover - in the worker
+    """Close every socket the fork copied from the parent but ``keep`` (the worker's pipe):
+    a server's listening socket and its clients' connections would otherwise stay open in
+    the worker after the server closed them (their clients would never see the end)."""
+    import stat
+
+    try:
+        names = os.listdir("/proc/self/fd")
+    except OSError:
+        return
+    for name in names:
+        fd = int(name)
+        if fd == keep:
+            continue
+        try:
+            if stat.S_ISSOCK(os.fstat(fd).st_mode):
+                os.close(fd)
+        except OSError:
+            pass
+
+
 def _serve(
     backend: Backend, budget: int, conn: Any, parent: int, bound: bool
 ) -> None:  # pragma: no cover - in the worker
     import faulthandler
 
+    _close_inherited_sockets(conn.fileno())
     _die_with(parent, bound)
     faulthandler.disable()  # a dump of this process would land on the caller's stderr
     try:  # an engine that aborts on a failed allocation prints there: keep it off the
