@@ -23,7 +23,7 @@ from typing import Any
 #: (its optional dependencies missing) is reported as skipped.
 BENCHMARKS: tuple[str, ...] = (
     "store", "queries", "render", "edges", "build", "scale", "batch", "reasoning",
-    "cross-scene",
+    "cross-scene", "serve",
 )  # fmt: skip
 
 
