@@ -82,6 +82,10 @@ class Store:
         self.close()
 
     def close(self) -> None:
+        """Close the database connections and end the SPARQL views' worker processes."""
+        for view in self._views.values():
+            view.close()
+        self._views.clear()
         self.graph_store.close()
 
     def backup(self, path: str | Path) -> Path:
@@ -265,6 +269,8 @@ class Store:
         view = self._views.get(key)
         if view is None:
             graphs = [self.graph_store.load_scene(sid) for sid in ids]
+            for old in self._views.values():
+                old.close()
             self._views.clear()  # keep one view: they can be large
             view = self._views[key] = RdfView.from_graphs(
                 graphs, backend=backend, evidence=with_evidence

@@ -178,6 +178,12 @@ class RdfView:
         """``"oxigraph"`` or ``"rdflib"``."""
         return self._backend.name
 
+    def close(self) -> None:
+        """End this view's worker process, if one was forked (a later query forks anew)."""
+        if self._worker is not None:
+            self._worker.close()
+            self._worker = None
+
     def __len__(self) -> int:
         """The number of triples in the view."""
         return len(self._backend)
