@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import errno
 import os
+import threading
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
@@ -71,6 +72,7 @@ class Store:
     def __init__(self, graph_store: GraphStore) -> None:
         self.graph_store = graph_store
         self._views: dict[tuple[Any, ...], RdfView] = {}
+        self._views_lock = threading.Lock()
 
     def __repr__(self) -> str:
         return f"Store({self.graph_store.url!r})"
@@ -83,9 +85,10 @@ class Store:
 
     def close(self) -> None:
         """Close the database connections and end the SPARQL views' worker processes."""
-        for view in self._views.values():
-            view.close()
-        self._views.clear()
+        with self._views_lock:
+            for view in self._views.values():
+                view.close()
+            self._views.clear()
         self.graph_store.close()
 
     def backup(self, path: str | Path) -> Path:
@@ -266,15 +269,16 @@ class Store:
             if sid not in stamps:
                 raise SceneNotFound(f"no scene {sid!r} in the store at {self.graph_store.url}")
         key = (ids, tuple(stamps[sid] for sid in ids), backend, with_evidence)
-        view = self._views.get(key)
-        if view is None:
-            graphs = [self.graph_store.load_scene(sid) for sid in ids]
-            for old in self._views.values():
-                old.close()
-            self._views.clear()  # keep one view: they can be large
-            view = self._views[key] = RdfView.from_graphs(
-                graphs, backend=backend, evidence=with_evidence
-            )
+        with self._views_lock:  # queries on several threads share one view
+            view = self._views.get(key)
+            if view is None:
+                graphs = [self.graph_store.load_scene(sid) for sid in ids]
+                for old in self._views.values():
+                    old.close()
+                self._views.clear()  # keep one view: they can be large
+                view = self._views[key] = RdfView.from_graphs(
+                    graphs, backend=backend, evidence=with_evidence
+                )
         return view.query(query, bindings=bindings, limit=limit, timeout_s=timeout_s,
                           default_graphs=default_graphs, named_graphs=named_graphs)  # fmt: skip
 

@@ -176,8 +176,6 @@ class App:
         #: Origins whose pages may read ``/sparql`` (``serve --cors``); none by default.
         self.cors = frozenset(cors)
         self.routes: list[Route] = list(ROUTES if routes is None else routes)
-        #: Held while a SPARQL query runs: the store keeps one RDF view and one worker.
-        self.sparql_lock = threading.Lock()
         self._work_lock = threading.RLock()
         self._handles_lock = threading.Lock()
         self._scenes: dict[str, tuple[object, Scene]] = {}

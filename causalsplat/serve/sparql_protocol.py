@@ -167,16 +167,13 @@ def sparql(app: App, request: Request, params: dict[str, str]) -> Response:
         offered = ", ".join(MEDIA_TYPES[f].split(";")[0] for f in FORMATS_BY_KIND[kind])
         raise HttpError(406, f"no acceptable format for this query; this one offers {offered}")
     scene_ids = query_params.get("scene") or None
-    if not app.sparql_lock.acquire(timeout=app.timeout_s):
-        raise HttpError(503, f"the endpoint is busy: no query slot within {app.timeout_s} s")
-    try:
-        result = app.store.sparql(
-            text, scene_ids=scene_ids, limit=app.limit, timeout_s=app.timeout_s,
-            default_graphs=defaults if defaults or named else None,
-            named_graphs=named if defaults or named else None,
-        )  # fmt: skip
-    finally:
-        app.sparql_lock.release()
+    # the view's workers (graph_store.rdf.sparql.WORKERS) run queries side by side; one
+    # more waits for a free worker within its timeout, then gets 503
+    result = app.store.sparql(
+        text, scene_ids=scene_ids, limit=app.limit, timeout_s=app.timeout_s,
+        default_graphs=defaults if defaults or named else None,
+        named_graphs=named if defaults or named else None,
+    )  # fmt: skip
     if result.truncated:
         # a cut result would look complete to every standard client: refused instead
         raise HttpError(

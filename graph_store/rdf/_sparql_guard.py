@@ -14,6 +14,7 @@ named graphs (one per scene) and never load a document (both engines are told no
 from __future__ import annotations
 
 import re
+import threading
 from dataclasses import dataclass
 from functools import lru_cache
 from typing import Any, Literal
@@ -52,6 +53,8 @@ class CheckedQuery:
 #: nested parentheses: refused as nested too deeply); this bound refuses a pathological
 #: query before the parser starts on it.
 MAX_NESTING = 64
+#: Held while rdflib parses and translates a query.
+_PARSER = threading.Lock()
 
 
 def nesting(text: str) -> int:
@@ -87,10 +90,6 @@ def nesting(text: str) -> int:
 @lru_cache(maxsize=256)
 def check_query(text: str) -> CheckedQuery:
     """Parse ``text`` as a read-only SPARQL query, or raise (see the module docstring)."""
-    from pyparsing import ParseException
-    from rdflib.plugins.sparql.algebra import translateQuery
-    from rdflib.plugins.sparql.parser import parseQuery
-
     if not isinstance(text, str):
         raise SparqlSyntaxError(f"a SPARQL query must be a string, got {type(text).__name__}")
     depth = nesting(text)
@@ -98,6 +97,15 @@ def check_query(text: str) -> CheckedQuery:
         raise SparqlSyntaxError(
             f"the query nests groups {depth} levels deep; at most {MAX_NESTING} are read"
         )
+    with _PARSER:  # rdflib's parser (pyparsing) keeps state between calls: one at a time
+        return _parse(text)
+
+
+def _parse(text: str) -> CheckedQuery:
+    from pyparsing import ParseException
+    from rdflib.plugins.sparql.algebra import translateQuery
+    from rdflib.plugins.sparql.parser import parseQuery
+
     try:
         parsed = parseQuery(text)
     except ParseException as exc:

@@ -13,7 +13,8 @@
 * User values go in through ``bindings`` (typed RDF terms), never into the query text.
 * ``limit`` bounds the rows consumed; ``timeout_s`` bounds the evaluation. On Linux the
   query is evaluated in a forked worker process (it shares the view's memory copy-on-write,
-  so nothing is serialised but the query and the rows; it is forked once and reused) under
+  so nothing is serialised but the query and the rows; a view forks up to :data:`WORKERS`
+  of them, reused, one query each, so a long query does not hold up the next) under
   an address-space limit of ``memory_mb`` above what the process maps (default: half the
   machine's memory); on timeout the worker is killed (the next query forks a new one), so
   its time and memory are given back at once, and the caller gets
@@ -31,6 +32,7 @@ import numbers
 import re
 import sys
 import threading
+import time
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Literal, Protocol
@@ -41,6 +43,7 @@ from rdflib import Literal as RdfLiteral
 from graph_store.errors import (
     SparqlArgumentError,
     SparqlError,
+    SparqlResourceError,
     SparqlRowLimitError,
     SparqlTimeoutError,
 )
@@ -63,6 +66,9 @@ BackendName = Literal["auto", "oxigraph", "rdflib"]
 ResultFormat = Literal[
     "json", "xml", "csv", "tsv", "turtle", "ntriples", "jsonld", "rdfxml", "nquads", "trig", "n3"
 ]
+#: Worker processes a view forks at most, one query each: a long query does not hold up
+#: the others (each is stopped at its own timeout); more wait for one to come free.
+WORKERS = 2
 _ABSOLUTE_IRI_RE = re.compile(r"[A-Za-z][A-Za-z0-9+.-]*:[^\s<>\"{}|\\^`]*\Z")
 _VARNAME_RE = re.compile(r"[^\W][\w\u00b7\u0300-\u036f\u203f\u2040]*\Z")
 
@@ -136,10 +142,17 @@ class _Backend(Protocol):
 class RdfView:
     """An immutable, queryable RDF view of scene graphs (built once, queried many times)."""
 
-    def __init__(self, backend: _Backend, scene_ids: tuple[str, ...]) -> None:
+    def __init__(
+        self, backend: _Backend, scene_ids: tuple[str, ...], *, workers: int = WORKERS
+    ) -> None:
+        if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+            raise SparqlArgumentError(f"workers must be an integer >= 1, got {workers!r}")
         self._backend = backend
         self.scene_ids = scene_ids
-        self._worker: QueryWorker | None = None
+        self.workers = workers
+        self._idle: list[QueryWorker] = []  # forked workers free for a query
+        self._busy = 0
+        self._pool = threading.Condition()
 
     @classmethod
     def from_graphs(
@@ -179,10 +192,38 @@ class RdfView:
         return self._backend.name
 
     def close(self) -> None:
-        """End this view's worker process, if one was forked (a later query forks anew)."""
-        if self._worker is not None:
-            self._worker.close()
-            self._worker = None
+        """End this view's idle worker processes (a later query forks anew; one running a
+        query ends when its query does)."""
+        with self._pool:
+            idle, self._idle = self._idle, []
+        for worker in idle:
+            worker.close()
+
+    def _take_worker(self, budget: int, timeout_s: float) -> QueryWorker:
+        """A worker free for one query: an idle one, a new one while fewer than
+        :attr:`workers` run, or the first to come free within ``timeout_s``."""
+        deadline = time.monotonic() + timeout_s
+        with self._pool:
+            while not self._idle and self._busy >= self.workers:
+                left = deadline - time.monotonic()
+                if left <= 0 or not self._pool.wait(left):
+                    raise SparqlTimeoutError(
+                        f"the SPARQL query did not finish within {timeout_s} s: all"
+                        f" {self.workers} workers of this view stayed busy"
+                    )
+            self._busy += 1
+            worker = self._idle.pop() if self._idle else None
+        if worker is None or worker.budget != budget:
+            if worker is not None:
+                worker.close()
+            worker = QueryWorker(self._backend, budget)
+        return worker
+
+    def _give_back(self, worker: QueryWorker) -> None:
+        with self._pool:
+            self._busy -= 1
+            self._idle.append(worker)
+            self._pool.notify()
 
     def __len__(self) -> int:
         """The number of triples in the view."""
@@ -248,11 +289,19 @@ class RdfView:
             isolate = can_isolate()
         if isolate:
             budget = default_budget() if memory_mb is None else memory_mb << 20
-            if self._worker is None or self._worker.budget != budget:
-                if self._worker is not None:
-                    self._worker.close()
-                self._worker = QueryWorker(self._backend, budget)
-            raw = self._worker.run(checked.text, terms, limit, timeout_s, selection)
+            started = time.monotonic()
+            worker = self._take_worker(budget, timeout_s)
+            try:
+                left = max(0.001, timeout_s - (time.monotonic() - started))
+                raw = worker.run(checked.text, terms, limit, left, selection)
+            except SparqlResourceError:
+                raise
+            except SparqlTimeoutError:
+                raise SparqlTimeoutError(
+                    f"the SPARQL query did not finish within {timeout_s} s"
+                ) from None
+            finally:
+                self._give_back(worker)
         else:
             raw = self._run_with_timeout(checked, terms, limit, timeout_s, selection)
         truncated = len(raw.rows) > limit

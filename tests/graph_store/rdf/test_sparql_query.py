@@ -249,8 +249,8 @@ def test_the_worker_is_reused_killed_on_timeout_and_bounded_in_memory() -> None:
     view = RdfView.from_graphs(random_scene("s", 40, 60, seed=5), backend="oxigraph")
     ask = "ASK { ?a csg:near ?b }"
     first = view.query(ask)
-    worker = view._worker
-    assert worker is not None and worker._process is not None
+    (worker,) = view._idle  # one query so far: one worker forked, now idle
+    assert worker._process is not None
     pid = worker._process.pid
     assert view.query(ask) == first and worker._process.pid == pid  # one fork, reused
     sort = "SELECT * WHERE { ?a ?b ?c . ?d ?e ?f . ?g ?h ?i } ORDER BY ?a ?d ?g ?c ?f ?i"
