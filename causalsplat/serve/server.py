@@ -18,9 +18,11 @@ from __future__ import annotations
 
 import contextlib
 import ipaddress
+import signal
 import socket
 import threading
 import time
+from collections.abc import Iterator
 from typing import Any, TextIO
 
 from causalsplat.errors import CausalSplatError
@@ -153,6 +155,27 @@ def _protocol() -> type[Any]:
     return HeaderDeadline
 
 
+def _quiet_signals(base: type[Any]) -> type[Any]:
+    """Uvicorn's server, stopping on SIGINT / SIGTERM without raising them again once it
+    has stopped: :meth:`Server.serve_forever` then returns, whatever handler was there."""
+
+    class Quiet(base):  # type: ignore[misc, valid-type]
+        @contextlib.contextmanager
+        def capture_signals(self) -> Iterator[None]:
+            if threading.current_thread() is not threading.main_thread():
+                yield
+                return
+            handled = (signal.SIGINT, signal.SIGTERM)
+            previous = {sig: signal.signal(sig, self.handle_exit) for sig in handled}
+            try:
+                yield
+            finally:
+                for sig, handler in previous.items():
+                    signal.signal(sig, handler)
+
+    return Quiet
+
+
 def _raise_descriptor_limit() -> None:
     """Let this process hold as many connections as its hard limit allows."""
     import resource
@@ -215,7 +238,7 @@ class Server:
             h11_max_incomplete_event_size=MAX_HEADER_BYTES, server_header=False,
             proxy_headers=False,
         )  # fmt: skip
-        self._uvicorn = uvicorn.Server(config)
+        self._uvicorn = _quiet_signals(uvicorn.Server)(config)
         self._socket = sock
         self.app = app
         self._thread: threading.Thread | None = None
@@ -236,7 +259,7 @@ class Server:
     def serve_forever(self) -> None:
         """Answer requests on this thread until :meth:`shutdown` (from another thread), or,
         on the main thread, until SIGINT or SIGTERM: requests in flight get
-        :data:`GRACE_S` seconds to finish, then the signal is raised again."""
+        :data:`GRACE_S` seconds to finish, then it returns."""
         self._uvicorn.run(sockets=[self._socket])
 
     def start(self) -> Server:
