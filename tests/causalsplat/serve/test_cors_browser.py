@@ -7,19 +7,16 @@ Skipped when Chromium or Playwright is missing; under CI (``CI=true``) that fail
 
 from __future__ import annotations
 
-import os
 import threading
 from collections.abc import Iterator
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
-from pathlib import Path
-from typing import Any, NoReturn
+from typing import Any
 
 import pytest
 
 from causalsplat import open_store
 from causalsplat.serve import App, Server
 
-CHROMIUM = os.environ.get("CAUSALSPLAT_TEST_CHROMIUM", "/usr/bin/chromium")
 PAGE = b"<!doctype html><title>lab</title><p>a page of another origin</p>"
 FETCH = """async ([url, method]) => {
   try {
@@ -35,12 +32,6 @@ FETCH = """async ([url, method]) => {
     return "blocked " + error.name;
   }
 }"""
-
-
-def _missing(reason: str) -> NoReturn:
-    if os.environ.get("CI", "").lower() == "true":
-        pytest.fail(f"{reason}: CI must run the browser tests")
-    pytest.skip(reason)
 
 
 @pytest.fixture(scope="module")
@@ -66,22 +57,6 @@ def lab() -> Iterator[str]:
     finally:
         httpd.shutdown()
         httpd.server_close()
-
-
-@pytest.fixture(scope="module")
-def browser() -> Iterator[Any]:
-    if not Path(CHROMIUM).is_file():
-        _missing(f"no Chromium at {CHROMIUM} (apt-get install chromium)")
-    try:
-        from playwright.sync_api import sync_playwright
-    except ImportError:
-        _missing("playwright is not installed (pip install -e '.[dev]')")
-    with sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=CHROMIUM, args=["--disable-dev-shm-usage"])
-        try:
-            yield browser
-        finally:
-            browser.close()
 
 
 @pytest.mark.parametrize("method", ["GET", "POST"])

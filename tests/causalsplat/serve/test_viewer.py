@@ -11,12 +11,11 @@ from __future__ import annotations
 import base64
 import hashlib
 import io
-import os
 import subprocess
 import sys
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import Any
 
 import numpy as np
 import pytest
@@ -27,19 +26,13 @@ from causalsplat.io import Camera, GaussianScene, write_ply
 from causalsplat.serve import App, Server
 from causalsplat.serve.splats import HIGHLIGHT_COLOR, entity_palette
 from graph_store import Entity, SceneGraph, SceneMeta
+from tests.causalsplat.serve.conftest import CHROMIUM
 from tests.conftest import COMMAND_TIMEOUT_S, REPO_ROOT
 
 DEMO_KITCHEN = Path(causalsplat.__file__).parent / "data" / "demo_kitchen.json"
-CHROMIUM = os.environ.get("CAUSALSPLAT_TEST_CHROMIUM", "/usr/bin/chromium")
 QUESTION = "where can I wash my hands?"
 BACKGROUND = np.array([21, 23, 28])  # the page's clear colour (0.082, 0.09, 0.11)
 STRUCTURE = ("wall", "floor", "ceiling")  # not labelled unless selected or an answer
-
-
-def _missing(reason: str) -> NoReturn:
-    if os.environ.get("CI", "").lower() == "true":
-        pytest.fail(f"{reason}: CI must run the viewer tests")
-    pytest.skip(reason)
 
 
 @pytest.fixture(scope="module")
@@ -93,29 +86,6 @@ def base_url(store_url: str) -> Iterator[str]:
             yield server.url.rstrip("/")
         finally:
             server.shutdown()
-
-
-@pytest.fixture(scope="module")
-def browser() -> Iterator[Any]:
-    if not Path(CHROMIUM).is_file():
-        _missing(f"no Chromium at {CHROMIUM} (apt-get install chromium)")
-    try:
-        from playwright.sync_api import sync_playwright
-    except ImportError:
-        _missing("playwright is not installed (pip install -e '.[dev]')")
-    with sync_playwright() as p:
-        browser = p.chromium.launch(
-            executable_path=CHROMIUM,
-            args=[
-                "--use-angle=swiftshader",
-                "--enable-unsafe-swiftshader",
-                "--disable-dev-shm-usage",
-            ],
-        )
-        try:
-            yield browser
-        finally:
-            browser.close()
 
 
 class Page:
