@@ -4,7 +4,8 @@ Uvicorn speaks HTTP/1.1 (keep-alive, chunked bodies) on an event loop; the app's
 handlers run on Starlette's thread pool (:mod:`causalsplat.serve.asgi`), so a long SPARQL
 query does not hold up the viewer's requests. A connection must send its request's headers
 within :data:`HEADER_TIMEOUT_S` and an idle one is closed after :data:`KEEP_ALIVE_S`, so
-connections that send nothing cannot use up the descriptors; the listen queue holds
+connections that send nothing cannot use up the descriptors (a server also raises its
+process's soft limit of open files to the hard one); the listen queue holds
 :data:`BACKLOG`. It listens on the loopback interface unless told otherwise:
 :func:`check_host` refuses any other address unless ``allow_remote`` is given, since the
 app has no authentication.
