@@ -16,6 +16,12 @@ Device = Literal["auto", "cpu", "cuda"]
 Trainer = Literal["auto", "numpy", "torch"]
 
 
+#: The most contrastive steps a build takes (300 by default; about 2 h at 7 ms a step).
+MAX_ITERATIONS = 1_000_000
+#: The widest per-Gaussian feature (16 by default): memory grows with it, per Gaussian.
+MAX_FEATURE_DIM = 1024
+
+
 class FieldConfigError(CausalSplatError, ValueError):
     """A :class:`FieldConfig` value is out of range; the message names the field."""
 
@@ -98,12 +104,12 @@ class FieldConfig:
 
 
 _ALLOWED: dict[str, Allowed] = {
-    "feature_dim": Interval(2, integer=True),
+    "feature_dim": Interval(2, MAX_FEATURE_DIM, integer=True),
     "weighting": ("spatial", "average", "random"),
     "w_min": Interval(0, 1),
     "eps": Interval(0, low_open=True),
     "init": ("uplift", "random"),
-    "iterations": Interval(0, integer=True),
+    "iterations": Interval(0, MAX_ITERATIONS, integer=True),
     "learning_rate": Interval(0, low_open=True),
     "pixels_per_step": Interval(0, integer=True),
     "margin": Interval(-1, 1, high_open=True),
