@@ -378,11 +378,9 @@ def sparql(
             store.scene(sid)
         if pattern is not None:
             ids = list(store.scene_ids(pattern))
-        dataset = bool(default_graphs or named_graphs)
         result = store.sparql(
             text, scene_ids=ids, bindings=bindings, limit=limit, timeout_s=timeout,
-            backend=backend, default_graphs=list(default_graphs) if dataset else None,
-            named_graphs=list(named_graphs) if dataset else None,
+            backend=backend, default_graphs=default_graphs, named_graphs=named_graphs,
         )  # fmt: skip
     if as_json and fmt is None:
         fmt = "jsonld" if result.kind == "graph" else "json"

@@ -171,8 +171,7 @@ def sparql(app: App, request: Request, params: dict[str, str]) -> Response:
     # more waits for a free worker within its timeout, then gets 503
     result = app.store.sparql(
         text, scene_ids=scene_ids, limit=app.limit, timeout_s=app.timeout_s,
-        default_graphs=defaults if defaults or named else None,
-        named_graphs=named if defaults or named else None,
+        default_graphs=defaults, named_graphs=named,
     )  # fmt: skip
     if result.truncated:
         # a cut result would look complete to every standard client: refused instead

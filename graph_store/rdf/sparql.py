@@ -365,8 +365,9 @@ def query_kind(text: str) -> QueryKind:
 def _selection(
     default_graphs: Sequence[str] | None, named_graphs: Sequence[str] | None
 ) -> Selection:
-    """The dataset given beside a query, its IRIs checked; ``None`` when neither is given."""
-    if default_graphs is None and named_graphs is None:
+    """The dataset given beside a query, its IRIs checked; ``None`` when neither names a
+    graph (both ``None`` or empty)."""
+    if not default_graphs and not named_graphs:
         return None
     out = []
     for name, iris_ in (("default graph", default_graphs), ("named graph", named_graphs)):
