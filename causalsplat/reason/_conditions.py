@@ -19,6 +19,8 @@ English verbs, with the particles they need), not phrasings from any evaluation 
 (('the', 'lamp', 'on', 'the', 'desk'), ())
 >>> split_condition(tuple("what is on the table if i look from the door".split())) is None
 True
+>>> split_condition(tuple("if the table is removed what falls".split()))
+(('the', 'table'), ('what', 'falls'))
 """
 
 from __future__ import annotations
@@ -136,6 +138,20 @@ def _opener(tokens: tuple[str, ...], i: int) -> int:
     return 1 if tokens[i] in SUBORDINATORS else 0
 
 
+#: Words that open the question after a condition written without a comma ("if the
+#: table is removed what falls").
+_QUESTION_WORDS = frozenset({"what", "which", "who", "whom", "whose", "how", "where"})
+
+
+def _question_start(clause: tuple[str, ...]) -> int:
+    """Where a question begins inside a condition clause that no comma closes: the first
+    question word after the words of removal; the clause's length when there is none."""
+    for k in range(1, len(clause)):
+        if clause[k] in _QUESTION_WORDS and removes(clause[:k]):
+            return k
+    return len(clause)
+
+
 def split_condition(
     tokens: tuple[str, ...],
 ) -> tuple[tuple[str, ...], tuple[str, ...]] | None:
@@ -157,6 +173,8 @@ def split_condition(
         clause = tokens[start:end]
         if not clause or not removes(clause):
             continue
+        end = start + _question_start(clause)
+        clause = tokens[start:end]
         question = (*tokens[: i if width == 1 or tokens[i] != "what" else i + 1], *tokens[end:])
         question = tuple(t for k, t in enumerate(question) if t != "," or k > 0)
         kept = tuple(

@@ -25,6 +25,18 @@ holds pasta.
 >>> on = need_verbs(("something", "to", "put", "my", "coffee", "on"), lex)
 >>> [round(verb_fit(on, table.get(c), lex), 2) for c in ("tray", "cup")]
 [0.75, 0.0]
+
+"Which thing needs watering?" asks for what undergoes the verb, not what helps do it
+(:func:`patient_verb`): only what people water (its ``affords``) can be the answer.
+
+>>> patient_verb(("which", "thing", "needs", "watering", "?"), lex)
+'water'
+>>> patient_verb(("what", "should", "be", "cleaned", "?"), lex)
+'clean'
+>>> patient_verb(("i", "need", "to", "water", "the", "plants"), lex) is None
+True
+>>> patient_verb(("store", "clothes", "that", "need", "washing"), lex) is None
+True
 """
 
 from __future__ import annotations
@@ -89,6 +101,105 @@ def need_verbs(tokens: tuple[str, ...], lexicon: Lexicon) -> NeedVerbs:
         prev = w
     particle = words[-1] if words and words[-1] in PARTICLES else None
     return NeedVerbs(() if verb is None else (verb,), particle, tuple(dict.fromkeys(objects)))
+
+
+#: Forms of "need" and "want" that, before a gerund, make its subject what the gerund is
+#: done to ("the plant needs watering": the plant is watered).
+_NEED_FORMS = frozenset({"need", "needs", "needed", "want", "wants", "wanted"})
+#: Words before "be" + participle that make the participle's verb a request ("what should
+#: be cleaned", "what has to be fixed", "what needs to be watered").
+_MODAL_BEFORE_BE = frozenset({"should", "must", "can", "could", "needs", "need", "ought",
+                              "to", "has", "have"})  # fmt: skip
+
+
+#: Pronouns opening a relative clause after a noun.
+_RELATIVE = frozenset({"that", "which", "who"})
+
+
+def patient_verb(tokens: tuple[str, ...], lexicon: Lexicon) -> str | None:
+    """The verb of a need whose answer undergoes it, or ``None``: "need(s) + gerund"
+    ("which thing needs watering?") and a modal passive ("what should be cleaned?", "what
+    needs to be watered?"). "I need to water the plants" is the speaker's own act: no
+    patient reading (the plants are named; the answer is what helps)."""
+    for i in range(len(tokens) - 1):
+        word, nxt = tokens[i], tokens[i + 1]
+        if i >= 2 and tokens[i - 1] in _RELATIVE and tokens[i - 2].isalpha():
+            continue  # "clothes that need washing": said of what the need acts on
+        if word in _NEED_FORMS and nxt.endswith("ing"):
+            base = lexicon.lemma(nxt, "v")
+            if base != nxt and base not in LIGHT_VERBS and lexicon.verb_senses(base):
+                return base
+        if word == "be" and i > 0 and tokens[i - 1] in _MODAL_BEFORE_BE and nxt.endswith("ed"):
+            base = lexicon.lemma(nxt, "v")
+            if base != nxt and base not in LIGHT_VERBS and lexicon.verb_senses(base):
+                return base
+    return None
+
+
+def affords_verb(verb: str, facts: ObjectFacts | None, lexicon: Lexicon) -> bool:
+    """Whether people do ``verb`` (or a synonym of it) to the object: an ``affords`` phrase
+    opens with it."""
+    if facts is None:
+        return False
+    heads = {lexicon.lemma(p.split()[0], "v") for p in facts.affords if p}
+    return any(_relatedness(verb, h, lexicon) >= SYNONYM for h in heads)
+
+
+#: Objects that stand for anything ("store items"): they agree with every object.
+_ANY_OBJECT = frozenset({"item", "items", "thing", "things", "stuff", "object", "objects",
+                         "belongings"})  # fmt: skip
+
+
+#: How many hypernym steps apart two objects may be and still be one kind ("meal" is a
+#: kind of "food" two steps up).
+KIND_DEPTH = 4
+
+
+def phrase_agrees(need: NeedVerbs, phrase: str, lexicon: Lexicon) -> bool | None:
+    """Whether a verb phrase ("dry hands", "store food", "keeping food cold") does what the
+    need asks: ``False`` when its verb is another ("wash my hands" is no "dry hands") or
+    acts on another kind of thing ("store my dishes" is no "store food"; "store items"
+    takes anything); ``True`` when the verbs are one, synonyms or one a kind of the other
+    and the objects (when both name one) are one kind; ``None`` when the phrase opens with
+    no verb or the need has none (it says nothing either way)."""
+    words = phrase.split()
+    if not words or not need.verbs:
+        return None
+    head = lexicon.lemma(words[0], "v")
+    if head in LIGHT_VERBS or not lexicon.verb_senses(head):
+        return None
+    if max(_relatedness(v, head, lexicon) for v in need.verbs) <= 0.0:
+        return False
+    objects = [
+        lexicon.lemma(w, "n")
+        for w in words[1:]
+        if w.isalpha()
+        and w not in ACTION_STOPWORDS
+        and w not in DETERMINERS
+        and w not in _POSSESSIVES
+        and lexicon.noun_senses(lexicon.lemma(w, "n"))
+    ]
+    wanted = [o for o in need.objects if lexicon.noun_senses(o)]
+    if not objects or not wanted or any(o in _ANY_OBJECT for o in (*objects, *wanted)):
+        return True
+    return any(_one_kind(o, w, lexicon) for o in objects for w in wanted)
+
+
+#: Possessives before an object ("your hands").
+_POSSESSIVES = frozenset({"your", "his", "her", "their", "its", "our", "my", "one's"})
+
+
+def _one_kind(a: str, b: str, lexicon: Lexicon) -> bool:
+    """``a`` and ``b`` in their first senses are one kind: the same synset, or one a
+    hypernym of the other within :data:`KIND_DEPTH` steps."""
+    if a == b:
+        return True
+    sa, sb = lexicon.noun_senses(a)[:1], lexicon.noun_senses(b)[:1]
+    if not sa or not sb:
+        return False
+    return sb[0] in lexicon.hypernym_closure(sa[0], KIND_DEPTH) or sa[
+        0
+    ] in lexicon.hypernym_closure(sb[0], KIND_DEPTH)
 
 
 def _relatedness(a: str, b: str, lexicon: Lexicon) -> float:

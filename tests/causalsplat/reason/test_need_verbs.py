@@ -8,7 +8,14 @@ import pytest
 
 from causalsplat.objects import objects_to_scene_graph, parse_objects
 from causalsplat.reason import SceneContext
-from causalsplat.reason._verbs import LIGHT_VERBS, NeedVerbs, need_verbs, verb_fit
+from causalsplat.reason._verbs import (
+    LIGHT_VERBS,
+    NeedVerbs,
+    need_verbs,
+    patient_verb,
+    phrase_agrees,
+    verb_fit,
+)
 from causalsplat.reason.knowledge import load_knowledge
 from causalsplat.reason.lexicon import load_lexicon
 from causalsplat.reason.offline import OfflineReasoner
@@ -102,3 +109,40 @@ def test_nothing_to_lie_on_is_nothing_fits(reasoner: OfflineReasoner) -> None:
     with_couch = _room("stool", "chair", "couch", "table", "plant", "book")
     answer = reasoner.answer("I want to lie down", with_couch)
     assert set(answer.categories) == {"couch"}, answer.explanation
+
+
+@pytest.mark.parametrize(
+    ("need", "phrase", "verdict"),
+    [
+        ("how can i wash my hands", "dry hands", False),  # another verb
+        ("where can i store my dishes", "store food", False),  # another kind of thing
+        ("where can i store my dishes", "store items", True),  # items: anything
+        ("i want to cook food", "cooking meals", True),  # a meal is a kind of food
+        ("how can i cool the room", "cool food", False),
+        ("i want to lie down", "sit", False),
+        ("i want to lie down", "a soft seat", None),  # no verb: says nothing either way
+    ],
+)
+def test_a_stored_phrase_agrees_with_a_need(need: str, phrase: str, verdict: bool | None) -> None:
+    assert phrase_agrees(_need(need), phrase, LEX) is verdict
+
+
+def test_what_does_the_verb_leads_what_merely_comes_close(reasoner: OfflineReasoner) -> None:
+    # pasta is eaten from a plate, cooked on a stove or in a pot; hands are dried on a
+    # towel and washed at a sink: by meaning alone the plate and the towel come first
+    kitchen = _room("plate", "stove", "pot", "table", "chair")
+    cook = reasoner.answer("I want to cook pasta", kitchen)
+    assert cook.entity_ids and set(cook.categories) <= {"stove", "pot"}, cook.explanation
+    bathroom = _room("towel", "sink", "shower", "toilet")
+    wash = reasoner.answer("How can I wash my hands?", bathroom)
+    assert set(wash.categories) == {"sink"}, wash.explanation
+
+
+def test_what_needs_watering_is_what_is_watered(reasoner: OfflineReasoner) -> None:
+    # "needs watering" asks for what undergoes it (people water plants), never for what
+    # gives water
+    wet = reasoner.answer("which thing needs watering?", _room("plant", "sink", "table"))
+    assert set(wet.categories) == {"plant"}, wet.explanation
+    dry = reasoner.answer("which thing needs watering?", _room("sink", "shower", "table", "chair"))
+    assert dry.entity_ids == () and dry.nothing_fits, dry.explanation
+    assert patient_verb(("clothes", "that", "need", "washing"), LEX) is None

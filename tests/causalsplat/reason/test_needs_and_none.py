@@ -70,16 +70,31 @@ def test_how_can_i_what_can_i_use_and_is_there_anything(
 @pytest.mark.parametrize(
     "text",
     ["it's too dark in here", "I want to watch a movie", "where can I take a shower?",
-     "I need to brush my teeth", "I need warm air to dry my hair", "I want to lie down"],
+     "I need to brush my teeth", "I need warm air to dry my hair", "I want to lie down",
+     "How can I wash my hands?", "How can I cool the room?", "I want to soak in hot water"],
 )  # fmt: skip
 def test_nothing_fits_when_the_room_lacks_what_is_needed(
     demo_room: SceneContext, reasoner: OfflineReasoner, text: str
 ) -> None:
-    # the demo room has no lamp, screen, shower, toothbrush, hair dryer, bed or couch
+    # the demo room has no lamp, screen, shower, toothbrush, hair dryer, bed, couch, sink,
+    # fan or bathtub; what it stores that its towel and fridge afford ("dry hands", "cool
+    # food") does another thing, or to another thing
     answer = reasoner.answer(text, demo_room)
     assert answer.entity_ids == () and answer.nothing_fits
     assert answer.candidates  # the closest candidates come with it
     assert "what would fit" in answer.explanation
+
+
+def test_the_scene_s_own_affordances_are_held_to_what_the_need_asks(
+    demo_room: SceneContext, reasoner: OfflineReasoner
+) -> None:
+    # the fridge stores "store food": dishes are stored where the scene stores items
+    dishes = reasoner.answer("where can I store my dishes?", demo_room)
+    assert set(dishes.categories) <= {"cabinet", "nightstand"} and dishes.entity_ids
+    # the plant stores "decorate", but people water plants: what needs watering is it
+    assert set(reasoner.answer("which thing needs watering?", demo_room).categories) == {"plant"}
+    cook = reasoner.answer("I want to cook pasta", demo_room)
+    assert cook.entity_ids and set(cook.categories) <= {"stove", "pot"}, cook.explanation
 
 
 def test_a_state_of_a_thing_is_no_need(room: SceneContext) -> None:
@@ -161,6 +176,11 @@ def test_needs_on_scene0000(reasoner: OfflineReasoner) -> None:
         return set(answer.categories)
 
     assert cats("How can I keep my drinks cold?") == {"refrigerator"}
+    assert cats("How can I wash my hands?") == {"sink"}
+    assert cats("where can I store my dishes?") != {"refrigerator"}
+    # no plant in this apartment: nothing needs watering (the sink gives water)
+    watering = reasoner.answer("which thing needs watering?", ctx)
+    assert watering.entity_ids == () and watering.nothing_fits
     assert cats("What can I use to heat up my lunch?") <= {"microwave", "toaster oven"}
     assert "sink" not in cats("I just washed my hands, where can I dry them?")
     assert "shower" not in cats("I need warm air to dry my hair")
