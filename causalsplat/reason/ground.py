@@ -316,7 +316,9 @@ class Grounder:
         mention = np.mention
         if mention is None or not grounding.chosen or is_named(np):
             return grounding
-        if self._knowledge().get(mention.phrase) is None:
+        facts = self._knowledge().get(mention.phrase)
+        held = {" ".join(c.lower().split()) for c in self.ctx.categories}
+        if facts is None or facts.name in held:
             return grounding
         return replace(grounding, how="described", chosen=())
 

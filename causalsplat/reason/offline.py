@@ -133,7 +133,14 @@ class OfflineReasoner:
             words = frozenset(
                 v.lower() for k, v in ctx.attribute_pairs() if " " not in v and k != key
             )
-            index = ctx.cache[_INDEX_KEY] = CategoryIndex(ctx.categories, self.lexicon, words)
+            # another name of the category's own entry (not of an entry it is itself
+            # another name of: "round table" takes none of the names of "table")
+            aliases = {c: facts.also for c in ctx.categories
+                       if (facts := self.knowledge.get(c)) is not None
+                       and facts.name == " ".join(c.lower().split())}  # fmt: skip
+            index = ctx.cache[_INDEX_KEY] = CategoryIndex(
+                ctx.categories, self.lexicon, words, aliases
+            )
         return index  # type: ignore[no-any-return]
 
     def grounder(self, ctx: SceneContext) -> Grounder:

@@ -311,6 +311,12 @@ class Planner:
                 out = self.b.add(Op.ARGMAX, step, anchor, metric=Metric.DISTANCE)
             return Planned(out, None)
         anchor = a[0] if len(a) == 1 else self.b.union(a)
+        if singular and anchor == step and self.b.size(related) == 0:
+            # "the trash can next to another trash can" when the words leave one trash can
+            # (see _fallback)
+            self.b.note(f"{_WORDS.get(c.kind, c.kind)!r}: its anchor is the candidates"
+                        " themselves; the relation was not used")  # fmt: skip
+            return Planned(step, None)
         return Planned(related, anchor, between=c.kind == "between", vertical=c.kind in VERTICAL)
 
     def _related(
@@ -362,7 +368,10 @@ class Planner:
         b = self.b
         if not singular or b.size(out) > 0:
             return out
-        if selectors:
+        if selectors or anchor == step:
+            # with its own selector, or when the anchor is the candidates themselves ("the
+            # trash can left of another trash can" when the words leave one trash can:
+            # nothing is related to itself, and the one left is meant)
             b.note(f"nothing is {_WORDS.get(kind, kind)} it; the relation was not used")
             return step
         b.note(f"nothing is {_WORDS.get(kind, kind)} it; took the closest instead")

@@ -316,3 +316,34 @@ def test_a_long_viewpoint_clause_before_a_short_main_clause() -> None:
         "top of it."
     )
     assert len(ask(scene, text)) == 1
+
+
+def test_another_name_the_knowledge_table_gives_a_kind_names_it() -> None:
+    # "wastebasket" and "garbage can" are other names of the trash can's entry; a
+    # category that is itself another name of an entry ("round table" of "table") takes
+    # none of that entry's names, so "the square table" is not the round one
+    room = _scene([(1, "trash can", (0.0, 0.0, 0.3), (0.4, 0.4, 0.6)),
+                   (2, "round table", (3.0, 0.0, 0.4), (1.0, 1.0, 0.8)),
+                   (3, "table", (6.0, 0.0, 0.4), (1.2, 0.8, 0.8))])  # fmt: skip
+    assert ask(room, "the wastebasket") == (1,)
+    assert ask(room, "the garbage can by the round table") == (1,)
+    assert ask(room, "the square table") == (3,)
+
+
+def test_another_of_the_same_kind_when_the_words_leave_one() -> None:
+    # both trash cans are grey, but only one is stored as grey: "the grey trash can left
+    # of another grey trash can" leaves that one as its own anchor; it is the answer, not
+    # nothing
+    from causalsplat.objects import objects_to_scene_graph, parse_objects
+
+    doc = {"scene_id": "cans", "objects": [
+        {"id": 1, "label": "trash can", "center": [0, 0, 0.3], "size": [0.4, 0.4, 0.6],
+         "attributes": {"color": "gray"}},
+        {"id": 2, "label": "trash can", "center": [2, 0, 0.3], "size": [0.4, 0.4, 0.6]},
+    ]}  # fmt: skip
+    ctx = SceneContext(objects_to_scene_graph(parse_objects(doc)))
+    for text in ("this is a gray trash can. it is to the left of another gray trash can.",
+                 "the gray trash can next to another gray trash can"):  # fmt: skip
+        answer = REASONER.answer(text, ctx)
+        assert answer.entity_ids == (1,), answer.explanation
+        assert "relation was not used" in answer.explanation
