@@ -368,14 +368,15 @@ class Planner:
         b = self.b
         if not singular or b.size(out) > 0:
             return out
-        if selectors or anchor == step:
-            # with its own selector, or when the anchor is the candidates themselves ("the
-            # trash can left of another trash can" when the words leave one trash can:
-            # nothing is related to itself, and the one left is meant)
+        closest = None if selectors else b.add(Op.ARGMIN, step, anchor, metric=Metric.DISTANCE)
+        if closest is None or (b.size(closest) == 0 and b.size(step) > 0):
+            # with its own selector; or when every anchor is a candidate itself ("the trash
+            # can left of another trash can" when the words leave one trash can: nothing
+            # is related to itself, and the one left is meant)
             b.note(f"nothing is {_WORDS.get(kind, kind)} it; the relation was not used")
             return step
         b.note(f"nothing is {_WORDS.get(kind, kind)} it; took the closest instead")
-        return b.add(Op.ARGMIN, step, anchor, metric=Metric.DISTANCE)
+        return closest
 
     def _between(self, step: int, a1: int, a2: int, *, singular: bool) -> int:
         b = self.b

@@ -347,3 +347,15 @@ def test_another_of_the_same_kind_when_the_words_leave_one() -> None:
         answer = REASONER.answer(text, ctx)
         assert answer.entity_ids == (1,), answer.explanation
         assert "relation was not used" in answer.explanation
+
+
+def test_the_closest_instead_never_leaves_nothing() -> None:
+    # the second sentence's relation points back at the target's own kind ("to the right
+    # of the curtain"): when the one curtain left is its only anchor, taking the closest
+    # would leave nothing; the curtain is kept
+    room = _scene([(1, "curtain", (0.0, 2.0, 1.2), (1.5, 0.1, 2.2)),
+                   (2, "bed", (3.0, 0.0, 0.3), (2.0, 1.6, 0.6)),
+                   (3, "dresser", (6.0, 1.5, 0.5), (1.0, 0.5, 1.0))])  # fmt: skip
+    text = "a curtain is hanging behind the bed. there is a dresser to the right of the curtain."
+    answer = REASONER.answer(text, room)
+    assert answer.entity_ids == (1,), answer.explanation
