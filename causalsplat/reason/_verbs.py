@@ -111,7 +111,6 @@ _NEED_FORMS = frozenset({"need", "needs", "needed", "want", "wants", "wanted"})
 _MODAL_BEFORE_BE = frozenset({"should", "must", "can", "could", "needs", "need", "ought",
                               "to", "has", "have"})  # fmt: skip
 
-
 #: Pronouns opening a relative clause after a noun.
 _RELATIVE = frozenset({"that", "which", "who"})
 
@@ -149,7 +148,8 @@ def affords_verb(verb: str, facts: ObjectFacts | None, lexicon: Lexicon) -> bool
 _ANY_OBJECT = frozenset({"item", "items", "thing", "things", "stuff", "object", "objects",
                          "belongings"})  # fmt: skip
 
-
+#: Possessives before an object ("your hands").
+_POSSESSIVES = frozenset({"your", "his", "her", "their", "its", "our", "my", "one's"})
 #: How many hypernym steps apart two objects may be and still be one kind ("meal" is a
 #: kind of "food" two steps up).
 KIND_DEPTH = 4
@@ -185,10 +185,6 @@ def phrase_agrees(need: NeedVerbs, phrase: str, lexicon: Lexicon) -> bool | None
     return any(_one_kind(o, w, lexicon) for o in objects for w in wanted)
 
 
-#: Possessives before an object ("your hands").
-_POSSESSIVES = frozenset({"your", "his", "her", "their", "its", "our", "my", "one's"})
-
-
 def _one_kind(a: str, b: str, lexicon: Lexicon) -> bool:
     """``a`` and ``b`` in their first senses are one kind: the same synset, or one a
     hypernym of the other within :data:`KIND_DEPTH` steps."""
@@ -197,9 +193,10 @@ def _one_kind(a: str, b: str, lexicon: Lexicon) -> bool:
     sa, sb = lexicon.noun_senses(a)[:1], lexicon.noun_senses(b)[:1]
     if not sa or not sb:
         return False
-    return sb[0] in lexicon.hypernym_closure(sa[0], KIND_DEPTH) or sa[
-        0
-    ] in lexicon.hypernym_closure(sb[0], KIND_DEPTH)
+    first_a, first_b = sa[0], sb[0]
+    return first_b in lexicon.hypernym_closure(first_a, KIND_DEPTH) or (
+        first_a in lexicon.hypernym_closure(first_b, KIND_DEPTH)
+    )
 
 
 def _relatedness(a: str, b: str, lexicon: Lexicon) -> float:

@@ -502,9 +502,11 @@ class Grounder:
         """Every scene category scored; the chosen are the best (ties kept) when they fit.
         ``patient``: the need asks what undergoes this verb ("which thing needs
         watering?"), so only categories people do it to may be chosen. ``verbs``: what the
-        need asks an object to do; a category whose best evidence does something else, or
-        to something else, and none of whose facts does what is asked is never chosen
-        ("how can I wash my hands?" is no towel's "dry hands")."""
+        need asks an object to do; a category whose stored affordances all do something
+        else, or to something else, is never chosen (:meth:`_does_otherwise`: "how can I
+        wash my hands?" is no towel's "dry hands"), and one that does it may lead a best
+        one that does not (:meth:`_doers_first`). Candidates are listed in the order
+        chosen from."""
         categories = self.ctx.categories
         meaning, which = self.meaning(query, phrase=phrase)
         cands = []
