@@ -103,6 +103,19 @@ class SceneContext:
             self.cache[memo] = tuple(sorted(values))
         return self.cache[memo]  # type: ignore[no-any-return]
 
+    def category_attribute_values(self, key: str) -> dict[str, tuple[str, ...]]:
+        """Per category, the distinct stored values of one attribute key, sorted (only
+        categories that store any)."""
+        memo = f"attr-by-category:{key}"
+        if memo not in self.cache:
+            found: dict[str, set[str]] = {}
+            for e in self.graph.entities:
+                for a in e.attributes:
+                    if a.key == key:
+                        found.setdefault(e.category, set()).add(a.value)
+            self.cache[memo] = {c: tuple(sorted(v)) for c, v in found.items()}
+        return self.cache[memo]  # type: ignore[no-any-return]
+
     def attribute_pairs(self) -> tuple[tuple[str, str], ...]:
         """Distinct stored ``(key, value)`` attribute pairs, sorted."""
         if "attr-pairs" not in self.cache:

@@ -382,12 +382,9 @@ class Grounder:
         if ranked.reference is not None:
             # the stored phrases must not meet a need that nothing here meets: what they
             # select is held to what would meet it best anywhere, as categories are
-            selected = {
-                e.category
-                for e in self.ctx.graph.entities
-                if any(a.key == self.ctx.config.affordance_key and a.value in match.phrases
-                       for a in e.attributes)
-            }  # fmt: skip
+            by_category = self.ctx.category_attribute_values(self.ctx.config.affordance_key)
+            selected = {c for c, values in by_category.items()
+                        if any(v in match.phrases for v in values)}  # fmt: skip
             best = max((self.meaning_of(query, c) for c in selected), default=0.0)
             if best < NEED_SHARE * ranked.reference[1]:
                 return replace(ranked, chosen=())
@@ -523,16 +520,18 @@ class Grounder:
         reference = self._reference(query) if need and cands else None
         eligible = cands
         if verbs is not None and verbs.verbs and patient is None:
-            eligible = [c for c in cands if not self._does_otherwise(c, verbs)]
+            otherwise = self._does_otherwise(verbs)
+            eligible = [c for c in cands if c.category not in otherwise]
         if patient is not None:
             knowledge = self._knowledge()
             eligible = [c for c in eligible
                         if affords_verb(patient, facts_for(c.category, knowledge, self.lexicon),
                                         self.lexicon)]  # fmt: skip
-            cands = eligible + [c for c in cands if c not in eligible]
         if verbs is not None and verbs.verbs and eligible:
             eligible = self._doers_first(eligible, verbs)
-            cands = eligible + [c for c in cands if c not in eligible]
+        if patient is not None or (verbs is not None and verbs.verbs):
+            kept = {id(c) for c in eligible}
+            cands = [*eligible, *(c for c in cands if id(c) not in kept)]
         if not eligible or eligible[0].score < fits:
             chosen: tuple[str, ...] = ()
         elif reference is not None and eligible[0].score < NEED_SHARE * reference[1]:
@@ -564,18 +563,25 @@ class Grounder:
         lead = next(c for f, c in doers if f == best)
         return [lead, *(c for c in ranked if c is not lead)]
 
-    def _does_otherwise(self, cand: Candidate, verbs: NeedVerbs) -> bool:
-        """The scene states what the candidate's category affords (stored phrases), and
-        every phrase that says anything of the need's verb does something else, or to
-        something else (:func:`~causalsplat.reason._verbs.phrase_agrees`): "I want to lie
-        down" is no stool's "sit", "how can I wash my hands?" no towel's "dry hands". The
-        scene's own statement outranks general knowledge; a category it states nothing
-        about is held to nothing here (a rule on the knowledge table's freely worded uses
-        answered DDN train's needs wrongly: 91 -> 71 %)."""
-        stored = {a.value for e in self.ctx.graph.entities if e.category == cand.category
-                  for a in e.attributes if a.key == self.ctx.config.affordance_key}  # fmt: skip
-        verdicts = [phrase_agrees(verbs, p, self.lexicon) for p in sorted(stored)]
-        return False in verdicts and True not in verdicts
+    def _does_otherwise(self, verbs: NeedVerbs) -> frozenset[str]:
+        """The categories whose stored affordances (what the scene states they are for)
+        all do something else, or to something else, than the need asks: each phrase that
+        says anything of the need's verb disagrees
+        (:func:`~causalsplat.reason._verbs.phrase_agrees`): "I want to lie down" is no
+        stool's "sit", "how can I wash my hands?" no towel's "dry hands". The scene's own
+        statement outranks general knowledge; a category it states nothing about is held
+        to nothing here (a rule on the knowledge table's freely worded uses answered DDN
+        train's needs wrongly: 91 -> 71 %)."""
+        by_category = self.ctx.category_attribute_values(self.ctx.config.affordance_key)
+        if not by_category:
+            return frozenset()
+        verdict = {p: phrase_agrees(verbs, p, self.lexicon)
+                   for p in {v for values in by_category.values() for v in values}}  # fmt: skip
+        return frozenset(
+            c
+            for c, values in by_category.items()
+            if False in (found := [verdict[v] for v in values]) and True not in found
+        )
 
     def _verb_gate(self, ranked: Grounding, verbs: NeedVerbs) -> Grounding:
         """Nothing here fits when what would meet the need best anywhere does what it asks
