@@ -225,6 +225,12 @@ class RdfView:
             self._idle.append(worker)
             self._pool.notify()
 
+    @property
+    def busy(self) -> int:
+        """The number of this view's workers running a query now."""
+        with self._pool:
+            return self._busy
+
     def __len__(self) -> int:
         """The number of triples in the view."""
         return len(self._backend)

@@ -4,6 +4,7 @@ the next one; with every worker busy, a query waits for one within its own timeo
 from __future__ import annotations
 
 import threading
+import time
 
 import pytest
 
