@@ -50,6 +50,7 @@ from tests.causalsplat.reason.vlm_server import (
     filled,
     strict_schema_problems,
 )
+from tests.conftest import COMMAND_TIMEOUT_S
 
 pytestmark = pytest.mark.vlm
 
@@ -145,15 +146,18 @@ def test_one_bad_reply_is_retried(
         ([Reply(VALID.replace("[6]", "[99]"))] * 2, "not entities of the scene"),
         ([Reply(VALID, finish_reason="length")] * 2, "VLMTruncatedError"),
         ([Status(500)], "HTTP 500"),
-        ([Reply(VALID, delay_s=2.0)], "VLMTimeoutError"),
+        # held until the test ends: the client's 0.5 s always run out first
+        ([Reply(VALID, delay_s=COMMAND_TIMEOUT_S)], "VLMTimeoutError"),
     ],
 )
 def test_failures_fall_back_to_the_offline_reasoner(
     room: SceneContext, script: list[Reply | Status], why: str
 ) -> None:
+    # only the timeout case needs a short timeout: the others must get their replies
+    timeout_s = 0.5 if why == "VLMTimeoutError" else 60.0
     with ScriptedServer() as server:
         server.script.extend(script)
-        answer = reasoner(server, timeout_s=0.5).answer(TEXT, room)
+        answer = reasoner(server, timeout_s=timeout_s).answer(TEXT, room)
     assert answer.reasoner == "offline" and answer.requested == "vlm"
     assert answer.fallback is not None and why in answer.fallback
     assert answer.entity_ids == (6,)  # the offline reasoner gets this one right

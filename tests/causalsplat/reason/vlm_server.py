@@ -37,7 +37,6 @@ import re
 import signal
 import sys
 import threading
-import time
 from collections import deque
 from dataclasses import dataclass
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
@@ -250,6 +249,7 @@ class ScriptedServer:
         self.strict = strict
         self.budget_param = budget_param
         self.temperature = temperature
+        self.released = threading.Event()  # set on exit: a delayed reply stops waiting
         server = self
 
         class Handler(BaseHTTPRequestHandler):
@@ -259,7 +259,8 @@ class ScriptedServer:
             def do_POST(self) -> None:
                 length = int(self.headers.get("Content-Length", "0"))
                 body = json.loads(self.rfile.read(length) or b"{}")
-                server.requests.append({"path": self.path, "body": body})
+                record: dict[str, Any] = {"path": self.path, "body": body}
+                server.requests.append(record)
                 refusal = _strict_refusal(body) if server.strict else None
                 if refusal is not None:
                     error = {
@@ -295,11 +296,11 @@ class ScriptedServer:
                 elif isinstance(action, Filling):
                     action = Reply(filling_content(body))
                 if action.delay_s:
-                    time.sleep(action.delay_s)
+                    server.released.wait(action.delay_s)  # cut short when the server stops
                 budget = body.get("max_tokens", body.get("max_completion_tokens"))
                 content, cut = cut_to_budget(action.content, budget)
                 finish = "length" if cut else action.finish_reason
-                server.requests[-1]["finish_reason"] = finish
+                record["finish_reason"] = finish
                 self._send(200, _completion(body, content, finish))
 
             def _send(
@@ -340,6 +341,7 @@ class ScriptedServer:
         return self
 
     def __exit__(self, *_exc: object) -> None:
+        self.released.set()
         self.httpd.shutdown()
         self.httpd.server_close()
 

@@ -17,6 +17,7 @@ from causalsplat import open_store
 from causalsplat.serve import App, Server
 from causalsplat.serve import server as server_module
 from causalsplat.serve.app import MAX_BODY_BYTES
+from tests.conftest import COMMAND_TIMEOUT_S
 
 COUNT = "SELECT (COUNT(*) AS ?n) WHERE { ?s ?p ?o }"
 
@@ -25,6 +26,19 @@ COUNT = "SELECT (COUNT(*) AS ?n) WHERE { ?s ?p ?o }"
 def quick_server(store_url: str, monkeypatch: pytest.MonkeyPatch) -> Iterator[Server]:
     """A server whose header deadline is 1 s (10 s by default)."""
     monkeypatch.setattr(server_module, "HEADER_TIMEOUT_S", 1.0)
+    yield from _serve(store_url)
+
+
+@pytest.fixture
+def patient_server(store_url: str, monkeypatch: pytest.MonkeyPatch) -> Iterator[Server]:
+    """A server that never cuts off an idle kept-alive connection during a test (the header
+    deadline, re-armed after each response, and the keep-alive time are long)."""
+    monkeypatch.setattr(server_module, "HEADER_TIMEOUT_S", COMMAND_TIMEOUT_S)
+    monkeypatch.setattr(server_module, "KEEP_ALIVE_S", COMMAND_TIMEOUT_S)
+    yield from _serve(store_url)
+
+
+def _serve(store_url: str) -> Iterator[Server]:
     with open_store(store_url, create=False) as store:
         server = Server(App(store, limit=50, timeout_s=20.0), "127.0.0.1", 0).start()
         try:
@@ -42,8 +56,8 @@ def _count(conn: http.client.HTTPConnection) -> int:
     return int(json.loads(response.read())["results"]["bindings"][0]["n"]["value"])
 
 
-def test_one_connection_carries_many_requests(quick_server: Server) -> None:
-    conn = http.client.HTTPConnection("127.0.0.1", quick_server.port, timeout=30)
+def test_one_connection_carries_many_requests(patient_server: Server) -> None:
+    conn = http.client.HTTPConnection("127.0.0.1", patient_server.port, timeout=30)
     first = _count(conn)
     sock = conn.sock
     assert [_count(conn) for _ in range(5)] == [first] * 5
@@ -51,8 +65,8 @@ def test_one_connection_carries_many_requests(quick_server: Server) -> None:
     conn.close()
 
 
-def test_a_chunked_body_is_read_and_an_oversized_one_refused(quick_server: Server) -> None:
-    conn = http.client.HTTPConnection("127.0.0.1", quick_server.port, timeout=30)
+def test_a_chunked_body_is_read_and_an_oversized_one_refused(patient_server: Server) -> None:
+    conn = http.client.HTTPConnection("127.0.0.1", patient_server.port, timeout=30)
     chunks = iter([COUNT[:10].encode(), COUNT[10:].encode()])
     conn.request("POST", "/sparql", body=chunks, encode_chunked=True,
                  headers={"Content-Type": "application/sparql-query"})  # fmt: skip

@@ -211,7 +211,8 @@ def _sparql_threads() -> int:
 
 
 def _wait_for_workers(before: int) -> bool:
-    for _ in range(200):
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline:
         if _sparql_threads() <= before:
             return True
         time.sleep(0.05)

@@ -40,6 +40,11 @@ def test_a_long_query_does_not_hold_up_the_next_and_a_full_pool_times_out() -> N
         assert first.is_alive()
         second = threading.Thread(target=_endless, args=(view, outcomes, 15.0))
         second.start()
+        # a started thread may not have taken its worker yet: wait until both hold one
+        deadline = time.monotonic() + 60
+        while view.busy < 2:
+            assert time.monotonic() < deadline, "the two long queries never held both workers"
+            time.sleep(0.01)
         # both busy: a third query waits its own time, then says why
         with pytest.raises(SparqlTimeoutError, match="all 2 workers of this view stayed busy"):
             view.query("ASK { ?s ?p ?o }", timeout_s=1.0)
