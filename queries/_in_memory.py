@@ -31,6 +31,7 @@ from queries.semantics import (
     rank_texts,
     squared_distance,
     support_paths,
+    view_consts,
     view_relation,
 )
 
@@ -169,7 +170,14 @@ class InMemoryExecutor(Executor):
             e = self._entity(x)
             flat = metric is Metric.HORIZONTAL_DISTANCE
             if not metric.is_distance:
-                value = metric_value(PY, metric.value, e.centroid, e.bbox_min, e.bbox_max)
+                value = metric_value(
+                    PY,
+                    metric.value,
+                    e.centroid,
+                    e.bbox_min,
+                    e.bbox_max,
+                    view_consts(PY, step.viewpoint),
+                )
             elif len(ins) == 2:
                 others = [
                     squared_distance(PY, e.centroid, self._entity(a).centroid, horizontal=flat)

@@ -35,6 +35,7 @@ from queries.semantics import (
     metric_value,
     rank_texts,
     squared_distance,
+    view_consts,
     view_relation,
 )
 
@@ -278,7 +279,9 @@ class SqlManySteps:
         flat = metric is Metric.HORIZONTAL_DISTANCE
         if not metric.is_distance:
             lo, hi = (s.c.min_x, s.c.min_y, s.c.min_z), (s.c.max_x, s.c.max_y, s.c.max_z)
-            value = metric_value(SQL, metric.value, centroid, lo, hi)
+            value = metric_value(
+                SQL, metric.value, centroid, lo, hi, view_consts(SQL, step.viewpoint)
+            )
             keyed = sa.select(s.c.scene_id, s.c.id, value.label("v")).where(*base)
         elif len(inputs) == 2:
             a = E.alias("a")

@@ -30,6 +30,7 @@ from queries.semantics import (
     metric_value,
     rank_texts,
     squared_distance,
+    view_consts,
     view_relation,
 )
 
@@ -343,7 +344,10 @@ class SqlSteps:
         if not metric.is_distance:
             lo, hi = (s.c.min_x, s.c.min_y, s.c.min_z), (s.c.max_x, s.c.max_y, s.c.max_z)
             keyed = sa.select(
-                s.c.id, metric_value(SQL, metric.value, centroid, lo, hi).label("v")
+                s.c.id,
+                metric_value(
+                    SQL, metric.value, centroid, lo, hi, view_consts(SQL, step.viewpoint)
+                ).label("v"),
             ).where(*base)
         elif len(inputs) == 2:
             a = self.entity("a")

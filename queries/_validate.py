@@ -105,12 +105,19 @@ def _check_fields(i: int, step: Step) -> None:
                 step=i,
                 field=name,
             )
+    rightward = step.metric is not None and step.metric.value == "rightward"
     if step.viewpoint is not None and not (
-        step.relation is not None and step.relation.is_view_dependent
+        rightward or (step.relation is not None and step.relation.is_view_dependent)
     ):
         raise QueryValidationError(
             "is only used with the view-dependent relations left_of, right_of, in_front_of"
-            " and behind",
+            " and behind, and with metric 'rightward'",
+            step=i,
+            field="viewpoint",
+        )
+    if rightward and step.viewpoint is None:
+        raise QueryValidationError(
+            "metric 'rightward' needs a viewpoint (the observer's eye and target)",
             step=i,
             field="viewpoint",
         )

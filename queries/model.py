@@ -101,7 +101,10 @@ class Metric(StrEnum):
     (without one: to the scene centre); ``horizontal_distance``: the same in the ``x``-``y``
     plane (heights ignored: "the picture above the bed" is the one most directly over
     it); ``z`` / ``x`` / ``y``: centroid coordinate;
-    ``height``: vertical bounding-box extent; ``volume``: bounding-box volume.
+    ``height``: vertical bounding-box extent; ``volume``: bounding-box volume;
+    ``rightward``: how far to the right of the step's ``viewpoint`` (the observer at ``eye``
+    looking at ``target``) the centroid lies, horizontally, so ``argmax`` is the rightmost
+    and ``argmin`` the leftmost as the observer sees them (needs ``viewpoint``).
     """
 
     DISTANCE = "distance"
@@ -111,6 +114,7 @@ class Metric(StrEnum):
     VOLUME = "volume"
     X = "x"
     Y = "y"
+    RIGHTWARD = "rightward"
 
     @property
     def is_distance(self) -> bool:
@@ -169,10 +173,18 @@ OP_SPECS: dict[Op, OpSpec] = {
         signature="relate_between(S, A, B): members of S between some a in A and b in B",
     ),
     Op.ARGMIN: OpSpec(
-        1, 2, ("metric",), ("k",), signature="argmin(S, [A], metric, k=1): the k smallest"
+        1,
+        2,
+        ("metric",),
+        ("k", "viewpoint"),
+        signature="argmin(S, [A], metric, k=1): the k smallest",
     ),
     Op.ARGMAX: OpSpec(
-        1, 2, ("metric",), ("k",), signature="argmax(S, [A], metric, k=1): the k largest"
+        1,
+        2,
+        ("metric",),
+        ("k", "viewpoint"),
+        signature="argmax(S, [A], metric, k=1): the k largest",
     ),
     Op.UNION: OpSpec(2, MAX_SET_INPUTS, signature="union(S1, S2, ...)"),
     Op.INTERSECT: OpSpec(2, MAX_SET_INPUTS, signature="intersect(S1, S2, ...)"),

@@ -23,8 +23,9 @@ flat :func:`graph_query_schema` is unchanged.
 
 :func:`graph_query_schema_by_op` says what the flat schema cannot: a step is one of a list
 of per-op schemas (``anyOf``), each holding only the fields its op takes, with the op's
-arity as ``minItems`` / ``maxItems`` of ``inputs``; ``relate`` is two schemas, and only the
-one whose relation is seen from a viewpoint has a ``viewpoint``. Under a grammar (llama.cpp,
+arity as ``minItems`` / ``maxItems`` of ``inputs``; ``relate``, ``argmin`` and ``argmax`` are
+two schemas each, and only the one whose relation (or metric, ``rightward``) is seen from a
+viewpoint has a ``viewpoint``. Under a grammar (llama.cpp,
 OpenAI's strict mode, both accept ``anyOf``) a model then cannot write a field its op does
 not use: a small model that fills every field it is offered otherwise writes a viewpoint of
 zeros on a ``filter_category`` step.
@@ -107,7 +108,7 @@ def _build() -> dict[str, Any]:
                 "required": ["eye", "target"],
                 "additionalProperties": False,
                 "description": "Observer for view-dependent relations (default: the scene"
-                " centre looking at the anchor).",
+                " centre looking at the anchor) and for metric rightward.",
             },
         },
         "required": ["op"],
@@ -131,8 +132,12 @@ def _build() -> dict[str, Any]:
 _SCHEMA = _build()
 
 
-def _step_schema(op: Op, relations: list[RelationType] | None = None) -> dict[str, Any]:
-    """One op's step: its own fields (the rest absent), its arity on ``inputs``."""
+def _step_schema(
+    op: Op, relations: list[RelationType] | None = None, metrics: list[Metric] | None = None
+) -> dict[str, Any]:
+    """One op's step: its own fields (the rest absent), its arity on ``inputs``; a
+    ``viewpoint`` only where ``relations`` / ``metrics`` are seen from one (required with
+    ``rightward``)."""
     spec = OP_SPECS[op]
     shared = _SCHEMA["properties"]["steps"]["items"]["properties"]
     inputs = copy.deepcopy(shared["inputs"])
@@ -141,18 +146,25 @@ def _step_schema(op: Op, relations: list[RelationType] | None = None) -> dict[st
         "op": {"type": "string", "enum": [op.value], "description": spec.signature},
         "inputs": inputs,
     }
+    required = ["op", "inputs", *spec.required]
+    rightward = metrics is not None and Metric.RIGHTWARD in metrics
     for name in STEP_FIELDS:
         if name in spec.required or name in spec.optional:
-            seen_from = relations is None or any(r.is_view_dependent for r in relations)
-            if name == "viewpoint" and not seen_from:
-                continue
+            if name == "viewpoint":
+                seen_from = any(r.is_view_dependent for r in relations) if relations else rightward
+                if not seen_from:
+                    continue
             props[name] = copy.deepcopy(shared[name])
     if relations is not None:
         props["relation"]["enum"] = [r.value for r in relations]
+    if metrics is not None:
+        props["metric"]["enum"] = [m.value for m in metrics]
+    if rightward:
+        required.append("viewpoint")
     return {
         "type": "object",
         "properties": props,
-        "required": ["op", "inputs", *spec.required],
+        "required": required,
         "additionalProperties": False,
     }
 
@@ -164,6 +176,10 @@ def _build_by_op() -> dict[str, Any]:
             split = [r for r in RelationType if not r.is_view_dependent]
             variants.append(_step_schema(op, split))
             variants.append(_step_schema(op, [r for r in RelationType if r.is_view_dependent]))
+        elif op in (Op.ARGMIN, Op.ARGMAX):
+            plain: list[Metric] = [m for m in Metric if m is not Metric.RIGHTWARD]
+            variants.append(_step_schema(op, metrics=plain))
+            variants.append(_step_schema(op, metrics=[Metric.RIGHTWARD]))
         else:
             variants.append(_step_schema(op))
     schema = copy.deepcopy(_SCHEMA)

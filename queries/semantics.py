@@ -23,7 +23,8 @@ Geometry (world frame, scene units, ``z`` up; see :class:`Algebra`)
       entity itself; members with no such reference are dropped. Without a reference set:
       to the scene centre. ``horizontal_distance``: the same with ``dz`` left out.
     * ``argmin`` / ``argmax``: sort by (metric ascending / descending, entity id ascending),
-      keep the first ``k``.
+      keep the first ``k``. ``rightward`` (:func:`metric_value`): ``d·(f.y, -f.x)`` with
+      ``f = target - eye`` of the step's viewpoint and ``d = centroid - eye``.
     * View-dependent relations (:func:`view_relation`), horizontal plane only: the observer
       looks from ``eye`` towards ``target`` (default: from the scene centre towards the anchor
       ``a``); with ``f = target - eye`` and ``d = s - a``, ``fwd = d·f`` and
@@ -61,10 +62,13 @@ from abc import ABC, abstractmethod
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import Generic, TypeVar
+from typing import TYPE_CHECKING, Generic, TypeVar
 
 from graph_store.types import RelationType
 from queries.errors import QueryValidationError
+
+if TYPE_CHECKING:
+    from queries.model import Viewpoint
 
 N = TypeVar("N")  # a numeric expression
 B = TypeVar("B")  # a boolean expression
@@ -271,8 +275,19 @@ def metric_value(
     centroid: tuple[N, N, N],
     lo: tuple[N, N, N],
     hi: tuple[N, N, N],
+    view: tuple[tuple[N, N], tuple[N, N]] | None = None,
 ) -> N:
-    """An entity's value for a non-distance metric (``x``, ``y``, ``z``, ``height``, ``volume``)."""
+    """An entity's value for a non-distance metric (``x``, ``y``, ``z``, ``height``,
+    ``volume``, ``rightward``). ``rightward`` needs ``view``, ``(eye, target)`` (x, y): with
+    ``f = target - eye`` and ``d = centroid - eye``, the value is ``d·(f.y, -f.x)``
+    (``dx*fy - dy*fx``), larger to the observer's right."""
+    if metric == "rightward":
+        if view is None:
+            raise ValueError("metric 'rightward' needs a view (eye, target)")
+        (ex, ey), (tx, ty) = view
+        fx, fy = alg.sub(tx, ex), alg.sub(ty, ey)
+        dx, dy = alg.sub(centroid[0], ex), alg.sub(centroid[1], ey)
+        return alg.sub(alg.mul(dx, fy), alg.mul(dy, fx))
     if metric == "x":
         return centroid[0]
     if metric == "y":
@@ -285,6 +300,17 @@ def metric_value(
         sx, sy, sz = alg.sub(hi[0], lo[0]), alg.sub(hi[1], lo[1]), alg.sub(hi[2], lo[2])
         return alg.mul(alg.mul(sx, sy), sz)
     raise ValueError(f"metric {metric!r} has no per-entity value")
+
+
+def view_consts(
+    alg: Algebra[N, B], viewpoint: Viewpoint | None
+) -> tuple[tuple[N, N], tuple[N, N]] | None:
+    """A step's :class:`~queries.model.Viewpoint` as ``(eye, target)`` constants (x, y) of
+    ``alg``, for :func:`metric_value`; ``None`` without one."""
+    if viewpoint is None:
+        return None
+    eye, target = viewpoint.eye, viewpoint.target
+    return (alg.const(eye[0]), alg.const(eye[1])), (alg.const(target[0]), alg.const(target[1]))
 
 
 def view_relation(

@@ -53,6 +53,7 @@ from queries.semantics import (
     rank_texts,
     squared_distance,
     support_paths,
+    view_consts,
     view_relation,
 )
 from queries.sparql_endpoints import SparqlBackendName, SparqlEndpoint, endpoint_for
@@ -287,7 +288,9 @@ class _SparqlRun:
         flat = metric is Metric.HORIZONTAL_DISTANCE
         if not metric.is_distance:
             lo, hi = ("?e_minX", "?e_minY", "?e_minZ"), ("?e_maxX", "?e_maxY", "?e_maxZ")
-            value = metric_value(SPARQL, metric.value, centroid, lo, hi)
+            value = metric_value(
+                SPARQL, metric.value, centroid, lo, hi, view_consts(SPARQL, step.viewpoint)
+            )
             body = self.located("e", 0, ins[0], "localId", *XYZ, *BOX)
             keyed = f"{body}BIND (({value}) AS ?v)\n"
         elif len(ins) == 2:

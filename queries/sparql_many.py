@@ -80,6 +80,7 @@ from queries.semantics import (
     rank_texts,
     squared_distance,
     support_paths,
+    view_consts,
     view_relation,
 )
 from queries.sparql_endpoints import SparqlEndpoint
@@ -352,7 +353,9 @@ class _ManyRun:
         flat = metric is Metric.HORIZONTAL_DISTANCE
         if not metric.is_distance:
             lo, hi = ("?e_minX", "?e_minY", "?e_minZ"), ("?e_maxX", "?e_maxY", "?e_maxZ")
-            value = metric_value(SPARQL, metric.value, centroid, lo, hi)
+            value = metric_value(
+                SPARQL, metric.value, centroid, lo, hi, view_consts(SPARQL, step.viewpoint)
+            )
             body = self.located("e", 0, ins, live, "localId", *XYZ, *BOX)
             keyed = f"{body}BIND (({value}) AS ?v)\n"
         elif len(ins) == 2:

@@ -105,12 +105,7 @@ def steps_for(draw: st.DrawFn, op: Op, sets: list[int]) -> dict[str, Any]:
         rel = draw(st.sampled_from(list(RelationType)))
         step.update(inputs=_refs(draw, sets, 2), relation=rel.value)
         if rel.is_view_dependent and draw(st.booleans()):
-            eye = [draw(COORDS) for _ in range(3)]
-            target = [draw(COORDS) for _ in range(3)]
-            if math.hypot(target[0] - eye[0], target[1] - eye[1]) < MIN_VIEW_DISTANCE:
-                # A viewpoint needs a horizontal direction (the model refuses it).
-                target[0] = eye[0] + 1.0
-            step["viewpoint"] = {"eye": eye, "target": target}
+            step["viewpoint"] = draw(viewpoints())
     elif op is Op.RELATE_BETWEEN:
         step["inputs"] = _refs(draw, sets, 3)
     elif op in (Op.ARGMIN, Op.ARGMAX):
@@ -118,6 +113,8 @@ def steps_for(draw: st.DrawFn, op: Op, sets: list[int]) -> dict[str, Any]:
         two = metric.is_distance and draw(st.booleans())
         step.update(inputs=_refs(draw, sets, 2 if two else 1), metric=metric.value)
         step["k"] = draw(st.none() | st.integers(1, 4))
+        if metric is Metric.RIGHTWARD:
+            step["viewpoint"] = draw(viewpoints())
     elif op in (Op.UNION, Op.INTERSECT):
         step["inputs"] = _refs(draw, sets, draw(st.integers(2, 3)))
     elif op is Op.DIFFERENCE:
@@ -125,6 +122,17 @@ def steps_for(draw: st.DrawFn, op: Op, sets: list[int]) -> dict[str, Any]:
     else:  # support_closure, fall_if_removed, count, exists
         step["inputs"] = _refs(draw, sets, 1)
     return {k: v for k, v in step.items() if v is not None}
+
+
+@st.composite
+def viewpoints(draw: st.DrawFn) -> dict[str, list[float]]:
+    """A valid viewpoint: eye and target at least MIN_VIEW_DISTANCE apart horizontally."""
+    eye = [draw(COORDS) for _ in range(3)]
+    target = [draw(COORDS) for _ in range(3)]
+    if math.hypot(target[0] - eye[0], target[1] - eye[1]) < MIN_VIEW_DISTANCE:
+        # A viewpoint needs a horizontal direction (the model refuses it).
+        target[0] = eye[0] + 1.0
+    return {"eye": eye, "target": target}
 
 
 NON_SCENE_OPS = [op for op in Op if op is not Op.SCENE]

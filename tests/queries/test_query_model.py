@@ -86,6 +86,12 @@ INVALID = [
         4, "viewpoint", "view-dependent",
     ),
     (with_step({"op": "argmax", "inputs": [1, 2], "metric": "z"}), 4, "inputs", "distance"),
+    (with_step({"op": "argmax", "inputs": [1], "metric": "rightward"}), 4, "viewpoint", "needs"),
+    (
+        with_step({"op": "argmin", "inputs": [1], "metric": "z",
+                   "viewpoint": {"eye": [0, 0, 0], "target": [1, 0, 0]}}),
+        4, "viewpoint", "metric 'rightward'",
+    ),
     (
         with_step({"op": "match_text", "inputs": [0], "value": "cup", "k": 0}),
         4, "k", "greater than or equal to 1",

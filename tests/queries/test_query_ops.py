@@ -10,7 +10,8 @@ Layout (top view, x right, y up; the scene centre is (0, 0), from the floor's bo
           x=-2  -1   0     1      2      3
 
 Seen from the centre looking at the sink (+x): towel 2 is on its left, towel 3 on its
-right, towel 4 behind it, the cup in front of it.
+right, towel 4 behind it, the cup in front of it; towel 2 is the leftmost towel, towel 3 the
+rightmost.
 """
 
 from __future__ import annotations
@@ -89,6 +90,12 @@ CASES = [
     ("v4 = argmax(v0, y)", (2,)),
     ("v4 = argmin(v0, y, k=3)", (7, 8, 9)),
     ("v4 = argmax(v0, volume)", (0,)),
+    # from the centre looking at the sink (+x), right is -y
+    ("v4 = argmax(v2, rightward, viewpoint=(0.0, 0.0, 1.0)->(2.0, 0.0, 1.0))", (3,)),
+    ("v4 = argmin(v2, rightward, viewpoint=(0.0, 0.0, 1.0)->(2.0, 0.0, 1.0))", (2,)),
+    # looking at (1, 2), right is (2, -1): towels 2, 3, 4 at 3, 5 and 6 to the right
+    ("v4 = argmax(v2, rightward, k=2, viewpoint=(0.0, 0.0, 1.0)->(1.0, 2.0, 1.0))", (3, 4)),
+    ("v4 = argmin(v2, rightward, viewpoint=(0.0, 0.0, 1.0)->(1.0, 2.0, 1.0))", (2,)),
     ("v4 = argmin(v2, v1, distance)", (2,)),
     ("v4 = argmin(v2, v1, distance, k=2)", (2, 3)),
     ("v4 = argmin(v0, v1, distance, k=2)", (2, 3)),

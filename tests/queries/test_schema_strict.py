@@ -197,6 +197,8 @@ def by_op_form(program: GraphQuery) -> dict[str, Any]:
             if v["properties"]["op"]["enum"] == [s["op"]]
             and ("relation" not in v["properties"]
                  or s.get("relation") in v["properties"]["relation"]["enum"])
+            and ("metric" not in v["properties"]
+                 or s.get("metric") in v["properties"]["metric"]["enum"])
         )  # fmt: skip
         steps.append({k: step[k] for k in fields})
     doc["steps"] = steps
@@ -207,15 +209,19 @@ def test_the_per_op_schema_passes_strict_mode_rules() -> None:
     strict = strict_schema(graph_query_schema_by_op())
     assert strict_schema_problems(strict) == []
     variants = strict["properties"]["steps"]["items"]["anyOf"]
-    assert len(variants) == len(OP_SPECS) + 1  # relate: with and without a viewpoint
+    # relate, argmin, argmax: with and without a viewpoint
+    assert len(variants) == len(OP_SPECS) + 3
     for v in variants:
         fields = v["properties"]
         spec = OP_SPECS[fields["op"]["enum"][0]]
         assert (fields["inputs"]["minItems"], fields["inputs"]["maxItems"]) == (
             spec.min_inputs, spec.max_inputs)  # fmt: skip
         assert set(fields) <= {"op", "inputs", *spec.required, *spec.optional}
-        if "viewpoint" in fields:  # only where the relation is seen from somewhere
-            assert all(RelationType(r).is_view_dependent for r in fields["relation"]["enum"])
+        if "viewpoint" in fields:  # only where the relation or metric is seen from somewhere
+            if "relation" in fields:
+                assert all(RelationType(r).is_view_dependent for r in fields["relation"]["enum"])
+            else:
+                assert fields["metric"]["enum"] == ["rightward"]
 
 
 @settings(max_examples=150, deadline=None)
