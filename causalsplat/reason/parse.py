@@ -400,7 +400,7 @@ def _view_clause_end(tokens: tuple[str, ...], i: int, end: int) -> int:
 def _viewpoint(tokens: tuple[str, ...], index: CategoryIndex) -> tuple[NounPhrase | None, bool]:
     """The viewpoint entity of a viewpoint clause, and whether the observer stands at it
     (standing, sitting, entering at it and not looking or facing anywhere else; standing
-    "at the foot of the bed" or "in front of the desk" faces it)."""
+    "at the foot of the bed" or "in front of the desk" faces it; "looking from" it)."""
     if not tokens:
         return None, False
     nps = [it.np for it in read_items(tokens, index) if it.np is not None and it.np.resolved]
@@ -412,7 +412,15 @@ def _viewpoint(tokens: tuple[str, ...], index: CategoryIndex) -> tuple[NounPhras
         and not any(t in g.LOOKING for t in tokens)
         and not any(t in g.FACING_PLACES for t in tokens)
     )
-    return named[-1], standing
+    # "looking from the toilet", "seen from the door": the observer is at it
+    seen_from = any(
+        t in g.LOOKING and nxt == "from" for t, nxt in itertools.pairwise(tokens)
+    ) and not any(t in _LOOKED_AT for t in tokens)
+    return named[-1], standing or seen_from
+
+
+#: Words naming where an observer looks ("looking from the door *at* the bed").
+_LOOKED_AT = frozenset({"at", "toward", "towards", "into", "facing", "face"})
 
 
 def _removed(target: NounPhrase | None) -> tuple[NounPhrase, ...]:

@@ -3,7 +3,13 @@
 :class:`Planner` turns the noun phrases of an :class:`~causalsplat.reason.parse.Instruction`
 into steps of a :class:`~queries.GraphQuery`: candidates by category (and stored attribute),
 then one step per relation to an anchor (anchors are planned the same way, recursively),
-then modifiers (largest, tallest, leftmost, second from the right...).
+then modifiers (largest, tallest, leftmost, second from the right...). Left and right rank
+by ``rightward``, seen from the observer (the scene centre, the viewpoint, or the place the
+observer stands at) looking at the candidates.
+
+A relation followed by another in the same phrase only selects ("the dresser under the bed,
+farther from the desk": every dresser near the bed, if none is under it); the last one
+chooses.
 
 Relations, by kind (the singular case is a referring expression that must name one entity):
 
@@ -265,8 +271,12 @@ class Planner:
         last = Planned(step)
         base = step
         selectors = bool(np.extremes or np.side or np.ordinal or np.place)
-        for constraint in np.constraints:
-            out = self.relation(step, constraint, singular=singular, selectors=selectors)
+        final = len(np.constraints) - 1
+        for k, constraint in enumerate(np.constraints):
+            # a relation with more to come leaves the choosing to what comes ("the dresser
+            # under the bed, farther from the desk"): it selects, never picks one
+            out = self.relation(step, constraint, singular=singular,
+                                selectors=selectors or k < final)  # fmt: skip
             if out is not None:
                 step, last = out.step, out
         step = self.place(step, np, base)
@@ -349,7 +359,7 @@ class Planner:
             relaxed = b.add(Op.RELATE, step, a[0], relation=RelationType(relation))
             if b.size(relaxed) == 0:
                 continue
-            if extreme:
+            if extreme and not selectors:
                 op = Op.ARGMAX if extreme == "z_max" else Op.ARGMIN
                 relaxed = b.add(op, relaxed, metric=Metric.Z)
                 which = "highest" if op is Op.ARGMAX else "lowest"
@@ -457,30 +467,32 @@ class Planner:
             step = self._side(step, "left", (b.size(step) + 1) // 2)
         return step
 
-    def _side_axis(self, step: int) -> tuple[Metric, float]:
-        """The horizontal axis closest to the observer's right and its sign: the observer
-        looks from the scene centre (or the viewpoint) at the candidates' centroid."""
+    def _side_view(self, step: int) -> dict[str, list[float]] | None:
+        """Where the observer stands to tell left from right among the candidates: looking
+        from the scene centre (or the viewpoint) at the candidates' centroid; ``None`` when
+        the two are too close to give a direction."""
         ids = self.b.value(step)
         pts = [self.ctx.by_id[i].centroid for i in ids]
-        target = [math.fsum(p[k] for p in pts) / len(pts) for k in range(2)]
-        eye = list(self.ctx.centre[:2])
+        target = [math.fsum(p[k] for p in pts) / len(pts) for k in range(3)]
+        eye = list(self.ctx.centre)
         ins = self.instruction
         if ins.viewpoint is not None:
             where = self._centroid_of(ins.viewpoint)
             if where is not None:
-                eye, target = (where[:2], eye) if ins.standing_at else (eye, where[:2])
-        fx, fy = target[0] - eye[0], target[1] - eye[1]
-        rx, ry = fy, -fx  # the observer's right
-        if abs(rx) >= abs(ry):
-            return Metric.X, (1.0 if rx >= 0 else -1.0)
-        return Metric.Y, (1.0 if ry >= 0 else -1.0)
+                eye, target = (where, eye) if ins.standing_at else (eye, where)
+        if math.hypot(target[0] - eye[0], target[1] - eye[1]) < MIN_VIEW_DISTANCE:
+            return None
+        return {"eye": eye, "target": target}
 
     def _side(self, step: int, side: str, nth: int) -> int:
+        """The ``nth`` candidate from the observer's ``side`` (``rightward`` seen from
+        :meth:`_side_view`; without a direction, the leftmost along ``x``)."""
         b = self.b
-        axis, sign = self._side_axis(step)
-        op = Op.ARGMAX if (side == "right") == (sign > 0) else Op.ARGMIN
+        view = self._side_view(step)
+        op = Op.ARGMAX if side == "right" else Op.ARGMIN
+        metric = Metric.RIGHTWARD if view is not None else Metric.X
         if nth <= 1:
-            return b.add(op, step, metric=axis)
-        upto = b.add(op, step, metric=axis, k=nth)
-        before = b.add(op, step, metric=axis, k=nth - 1)
+            return b.add(op, step, metric=metric, viewpoint=view)
+        upto = b.add(op, step, metric=metric, k=nth, viewpoint=view)
+        before = b.add(op, step, metric=metric, k=nth - 1, viewpoint=view)
         return b.add(Op.DIFFERENCE, upto, before)

@@ -1,0 +1,73 @@
+"""Left and right as the observer sees them, observers who look *from* a place, and
+relations that leave the choosing to what comes after them.
+
+Rooms are objects documents (the ReferIt3D setting: labelled boxes, our edges), written
+for these tests.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from causalsplat.objects import objects_to_scene_graph, parse_objects
+from causalsplat.reason import SceneContext
+from causalsplat.reason.offline import OfflineReasoner
+from queries import Metric
+
+REASONER = OfflineReasoner(embeddings=False)
+
+
+def _room(objects: list[tuple[int, str, tuple[float, float, float], tuple[float, float, float]]]
+          ) -> SceneContext:  # fmt: skip
+    doc: dict[str, Any] = {
+        "scene_id": "room",
+        "objects": [
+            {"id": i, "label": label, "center": list(c), "size": list(s)}
+            for i, label, c, s in objects
+        ],
+    }
+    return SceneContext(objects_to_scene_graph(parse_objects(doc)))
+
+
+FLOOR = (0, "floor", (0.0, 0.0, -0.05), (8.0, 8.0, 0.1))
+BOX = (0.5, 0.5, 0.9)
+
+
+def test_left_is_what_the_observer_sees_on_the_left_not_along_the_nearest_axis() -> None:
+    # from the centre (0, 0) facing the window in the north-east corner: chair 2, north of
+    # the line of sight, is on the left; chair 3, due east, on the right. Along the axis
+    # nearest the observer's right (x), chair 3 would be the leftmost (smaller x).
+    ctx = _room([FLOOR, (1, "window", (3.0, 3.0, 1.5), (1.0, 0.1, 1.0)),
+                 (2, "chair", (2.0, 3.5, 0.45), BOX),
+                 (3, "chair", (1.0, 0.0, 0.45), BOX)])  # fmt: skip
+    left = REASONER.answer("facing the window, the chair on the left", ctx)
+    right = REASONER.answer("facing the window, the chair on the right", ctx)
+    assert (left.entity_ids, right.entity_ids) == ((2,), (3,))
+    metrics = {s.metric for s in left.program.steps}
+    assert Metric.RIGHTWARD in metrics, left.explanation
+
+
+def test_looking_from_a_place_stands_there() -> None:
+    # a toilet on the east wall, towels north and south of the room's middle: looking from
+    # the toilet (westwards) the northern towel is on the right; looking *at* the toilet
+    # from the middle, it is on the left
+    ctx = _room([FLOOR, (1, "toilet", (3.5, 0.0, 0.4), (0.6, 0.8, 0.8)),
+                 (2, "towel", (0.0, 2.0, 1.0), (0.4, 0.1, 0.6)),
+                 (3, "towel", (0.0, -2.0, 1.0), (0.4, 0.1, 0.6))])  # fmt: skip
+    assert REASONER.answer("looking from the toilet, the towel on the right", ctx).entity_ids == (
+        2,
+    )
+    assert REASONER.answer("looking at the toilet, the towel on the right", ctx).entity_ids == (3,)
+
+
+def test_a_relation_with_more_to_come_selects_and_the_last_one_chooses() -> None:
+    # two dressers beside the bed (nothing is stored as under it) and a desk by the
+    # lower one: "under the bed" keeps both, "farther from the desk" chooses
+    ctx = _room([FLOOR, (1, "bed", (0.0, 0.0, 0.3), (2.0, 2.0, 0.6)),
+                 (2, "dresser", (-1.4, 0.0, 0.35), (0.6, 0.5, 0.7)),
+                 (3, "dresser", (1.4, 0.0, 0.45), (0.6, 0.5, 0.9)),
+                 (4, "desk", (-3.0, 0.0, 0.4), (1.2, 0.6, 0.8))])  # fmt: skip
+    answer = REASONER.answer("the dresser under the bed, farther from the desk", ctx)
+    assert answer.entity_ids == (3,), answer.explanation
+    # alone, the relaxed relation still picks one: the lowest of what is near the bed
+    assert REASONER.answer("the dresser under the bed", ctx).entity_ids == (2,)
