@@ -525,6 +525,10 @@ class _Reader:
             self.subject = np
         elif k > 0 and self.items[k - 1].conjunction and not self.constraints:
             self.target = replace(self.target, coordinated=(*self.target.coordinated, np))
+        elif np.is_any and np.mention is not None and not self.target.is_any:
+            # "the coffee table is the furthest left one": "one" is the target again, and
+            # what singles it out singles out the target
+            self.mods.extend(_modifiers_of(np))
         else:
             self.free = np
 
@@ -660,6 +664,19 @@ def _with_modifiers(np: NounPhrase, mods: list[Modifier]) -> NounPhrase:
         place_negated=np.place_negated if np.place else any(m.negated for m in mods),
         ordinal=np.ordinal or next((m.number for m in mods if m.kind == "ordinal"), None),
     )
+
+
+def _modifiers_of(np: NounPhrase) -> list[Modifier]:
+    """A phrase's modifiers, as items (to hand them to another phrase)."""
+    mods = [Modifier("attribute", a) for a in np.attributes]
+    mods += [Modifier("extreme", metric=m, direction=d) for m, d in np.extremes]
+    if np.side:
+        mods.append(Modifier("side", np.side))
+    if np.place:
+        mods.append(Modifier("place", np.place, negated=np.place_negated))
+    if np.ordinal:
+        mods.append(Modifier("ordinal", number=np.ordinal))
+    return mods
 
 
 def _merge_modifiers(subject: NounPhrase, target: NounPhrase) -> NounPhrase:

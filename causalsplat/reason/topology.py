@@ -272,11 +272,18 @@ class Planner:
         base = step
         selectors = bool(np.extremes or np.side or np.ordinal or np.place)
         final = len(np.constraints) - 1
+        # "the second closest to the window": the ordinal ranks the last closest/farthest
+        extremal = [
+            k for k, c in enumerate(np.constraints)
+            if c.kind in ("closest", "farthest") and not c.negated
+        ]  # fmt: skip
+        ranked = extremal[-1] if extremal else -1
         for k, constraint in enumerate(np.constraints):
             # a relation with more to come leaves the choosing to what comes ("the dresser
             # under the bed, farther from the desk"): it selects, never picks one
+            nth = np.ordinal if k == ranked and not np.side and (np.ordinal or 0) > 1 else 1
             out = self.relation(step, constraint, singular=singular,
-                                selectors=selectors or k < final)  # fmt: skip
+                                selectors=selectors or k < final, nth=nth)  # fmt: skip
             if out is not None:
                 step, last = out.step, out
         step = self.place(step, np, base)
@@ -300,16 +307,17 @@ class Planner:
     # -- relations -----------------------------------------------------------------------
 
     def relation(
-        self, step: int, c: Constraint, *, singular: bool, selectors: bool
+        self, step: int, c: Constraint, *, singular: bool, selectors: bool, nth: int = 1
     ) -> Planned | None:
-        """Apply one relation to the candidates at ``step`` (module docstring)."""
+        """Apply one relation to the candidates at ``step`` (module docstring); ``nth``:
+        of ``closest`` / ``farthest``, the nth closest / farthest."""
         anchors = [self.anchor(a) for a in c.anchors]
         if any(a is None for a in anchors):
             self.b.note(f"relation {_WORDS.get(c.kind, c.kind)!r} dropped: its anchor is unknown")
             return None
         a = [x for x in anchors if x is not None]
         related = self._related(step, c.kind, a, singular=singular and not c.negated,
-                                selectors=selectors)  # fmt: skip
+                                selectors=selectors, nth=nth)  # fmt: skip
         if c.negated:
             out = self.b.add(Op.DIFFERENCE, step, related)
             if singular and self.b.size(out) == 0 and self.b.size(step) > 0:
@@ -330,13 +338,16 @@ class Planner:
         return Planned(related, anchor, between=c.kind == "between", vertical=c.kind in VERTICAL)
 
     def _related(
-        self, step: int, kind: str, a: list[int], *, singular: bool, selectors: bool
+        self, step: int, kind: str, a: list[int], *, singular: bool, selectors: bool, nth: int = 1
     ) -> int:
         b = self.b
-        if kind == "closest":
-            return b.add(Op.ARGMIN, step, a[0], metric=Metric.DISTANCE)
-        if kind == "farthest":
-            return b.add(Op.ARGMAX, step, a[0], metric=Metric.DISTANCE)
+        if kind in ("closest", "farthest"):
+            op = Op.ARGMIN if kind == "closest" else Op.ARGMAX
+            if nth <= 1 or b.size(step) < nth:
+                return b.add(op, step, a[0], metric=Metric.DISTANCE)
+            upto = b.add(op, step, a[0], metric=Metric.DISTANCE, k=nth)
+            before = b.add(op, step, a[0], metric=Metric.DISTANCE, k=nth - 1)
+            return b.add(Op.DIFFERENCE, upto, before)
         if kind == "near" and singular and not selectors:
             return b.add(Op.ARGMIN, step, a[0], metric=Metric.DISTANCE)
         if kind == "between":

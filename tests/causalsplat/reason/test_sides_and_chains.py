@@ -71,3 +71,25 @@ def test_a_relation_with_more_to_come_selects_and_the_last_one_chooses() -> None
     assert answer.entity_ids == (3,), answer.explanation
     # alone, the relaxed relation still picks one: the lowest of what is near the bed
     assert REASONER.answer("the dresser under the bed", ctx).entity_ids == (2,)
+
+
+def _row_of_tables() -> SceneContext:
+    # three tables in a row west to east, larger eastwards; a window in the north-east corner
+    return _room([FLOOR, (1, "table", (-2.0, 2.0, 0.4), (0.4, 0.4, 0.8)),
+                  (2, "table", (0.0, 2.0, 0.4), (0.6, 0.6, 0.8)),
+                  (3, "table", (2.0, 2.0, 0.4), (0.8, 0.8, 0.8)),
+                  (4, "window", (3.8, 3.8, 1.5), (0.1, 1.0, 1.0))])  # fmt: skip
+
+
+def test_what_singles_out_the_one_singles_out_the_target() -> None:
+    ctx = _row_of_tables()
+    # seen from the centre, looking north at the tables: west is on the left
+    answer = REASONER.answer("the table is the furthest left one of the three tables", ctx)
+    assert answer.entity_ids == (1,), answer.explanation
+
+
+def test_an_ordinal_ranks_the_closest() -> None:
+    ctx = _row_of_tables()
+    assert REASONER.answer("the table closest to the window", ctx).entity_ids == (3,)
+    assert REASONER.answer("the second closest table to the window", ctx).entity_ids == (2,)
+    assert REASONER.answer("the table is the third closest to the window", ctx).entity_ids == (1,)
