@@ -130,7 +130,15 @@ def parse_instruction(text: str, index: CategoryIndex) -> Instruction:
     view_tokens, main_tokens = _split_viewpoint(tokens)
     viewpoint, standing = _viewpoint(view_tokens, index)
     items = read_items(main_tokens, index, view_tokens)
-    reader = _Reader(items, viewpoint, main_tokens)
+    picked = _picked_clause(main_tokens, items)
+    if picked is None:
+        reader = _Reader(items, viewpoint, main_tokens)
+    else:
+        # "look for the bed. choose the pillow at its foot": the target is what is chosen;
+        # what came before is context a pronoun may point back to
+        before, main = main_tokens[:picked], main_tokens[picked:]
+        reader = _Reader(read_items(main, index, (*view_tokens, *before)), viewpoint, main)
+        reader.free = next(it.np for it in items if it.np is not None)  # type: ignore[assignment]
     target = reader.read()
     joined = " ".join(tokens)
     wh = bool(main_tokens) and (main_tokens[0] in g.WH_WORDS or joined.startswith("how many"))
@@ -421,6 +429,46 @@ def _viewpoint(tokens: tuple[str, ...], index: CategoryIndex) -> tuple[NounPhras
 
 #: Words naming where an observer looks ("looking from the door *at* the bed").
 _LOOKED_AT = frozenset({"at", "toward", "towards", "into", "facing", "face"})
+
+
+#: Verbs that say which object is meant ("choose the", "you want the").
+_PICKING = frozenset({"choose", "chose", "select", "pick", "click", "find", "grab", "identify",
+                      "want", "need", "seek"})  # fmt: skip
+#: What may open a clause before a picking verb ("then you want", "please select").
+_PICK_OPENERS = frozenset({"you", "are", "then", "now", "please", "and", "so", "i", "we",
+                           "would", "should", "will", "to", "it", "is", "just"})  # fmt: skip
+_SEARCHING = frozenset({"looking", "look", "searching", "search"})
+
+
+def _picked_clause(tokens: tuple[str, ...], items: list[Item]) -> int | None:
+    """Where a later clause opens that picks the target ("..., choose the pillow", ". you
+    want the chair", ", you are looking for the desk"): a picking verb after a separator,
+    with only clause openers between, right before a phrase naming a category; ``None``
+    when the first phrase of the instruction is already the one picked."""
+    nps = [it for it in items if it.np is not None]
+    if not nps:
+        return None
+    first_np = nps[0].start
+    for it in items:
+        if not it.separator or it.start < first_np:
+            continue
+        j = it.end
+        while j < len(tokens) and tokens[j] in _PICK_OPENERS:
+            j += 1
+        if j >= len(tokens):
+            return None
+        verb = tokens[j]
+        if verb in _SEARCHING and j + 1 < len(tokens) and tokens[j + 1] == "for":
+            j += 1
+        elif verb not in _PICKING or (verb in ("want", "need") and tokens[j - 1] != "you"):
+            continue
+        after = next((n for n in nps if n.start > j), None)
+        if after is None or after.np.is_any:  # type: ignore[attr-defined]
+            continue
+        if any(t in (",", ".", "?") for t in tokens[j : after.start]):
+            continue
+        return it.end
+    return None
 
 
 def _removed(target: NounPhrase | None) -> tuple[NounPhrase, ...]:

@@ -93,3 +93,19 @@ def test_an_ordinal_ranks_the_closest() -> None:
     assert REASONER.answer("the table closest to the window", ctx).entity_ids == (3,)
     assert REASONER.answer("the second closest table to the window", ctx).entity_ids == (2,)
     assert REASONER.answer("the table is the third closest to the window", ctx).entity_ids == (1,)
+
+
+def test_the_target_is_what_a_later_clause_picks() -> None:
+    ctx = _room([FLOOR, (1, "bed", (0.0, 0.0, 0.3), (2.0, 2.0, 0.6)),
+                 (2, "pillow", (0.0, 0.8, 0.65), (0.5, 0.3, 0.15)),
+                 (3, "pillow", (0.0, -2.5, 0.1), (0.5, 0.3, 0.15)),
+                 (4, "lamp", (1.4, 0.9, 0.5), (0.3, 0.3, 1.0))])  # fmt: skip
+    for text in (
+        "look for the bed. choose the pillow on the bed",
+        "find the bed, then you want the pillow on it",
+        "next to the lamp is a bed, and you are looking for the pillow on top of it",
+    ):
+        answer = REASONER.answer(text, ctx)
+        assert answer.entity_ids == (2,), (text, answer.explanation)
+    # the first phrase picked already: nothing changes
+    assert REASONER.answer("choose the pillow on the bed", ctx).entity_ids == (2,)
