@@ -571,12 +571,18 @@ class _Reader:
             and not self.closed
         ):
             self.subject = np
+        elif (
+            np.is_any
+            and np.mention is not None
+            and not self.target.is_any
+            and (_modifiers_of(np) or not (k > 0 and self.items[k - 1].conjunction))
+        ):
+            # "the coffee table is the furthest left one", "there are six benches, and you
+            # want the leftmost one": "one" is the target again, and what singles it out
+            # singles out the target
+            self.mods.extend(_modifiers_of(np))
         elif k > 0 and self.items[k - 1].conjunction and not self.constraints:
             self.target = replace(self.target, coordinated=(*self.target.coordinated, np))
-        elif np.is_any and np.mention is not None and not self.target.is_any:
-            # "the coffee table is the furthest left one": "one" is the target again, and
-            # what singles it out singles out the target
-            self.mods.extend(_modifiers_of(np))
         else:
             self.free = np
 

@@ -109,3 +109,9 @@ def test_the_target_is_what_a_later_clause_picks() -> None:
         assert answer.entity_ids == (2,), (text, answer.explanation)
     # the first phrase picked already: nothing changes
     assert REASONER.answer("choose the pillow on the bed", ctx).entity_ids == (2,)
+
+
+def test_a_leftmost_one_after_and_is_the_target_not_a_second_thing() -> None:
+    ctx = _row_of_tables()
+    answer = REASONER.answer("there are three tables, and you want the left-most one", ctx)
+    assert answer.entity_ids == (1,), answer.explanation
