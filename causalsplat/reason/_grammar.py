@@ -186,6 +186,11 @@ EXTREMES: dict[str, tuple[Metric, Op]] = {
     "highest": _HIGH, "higher": _HIGH, "upper": _HIGH, "uppermost": _HIGH, "topmost": _HIGH,
     "lowest": _LOW, "lower": _LOW, "bottommost": _LOW,
 }  # fmt: skip
+#: Words after which "to" opens an infinitive ("want to", "something to", "a place to").
+INFINITIVE_HEADS = frozenset({"want", "wants", "wanted", "need", "needs", "like", "love",
+                              "going", "trying", "try", "able", "have", "has", "something",
+                              "somewhere", "anything", "place", "way", "thing", "tool",
+                              "object", "where", "how", "what", "ready"})  # fmt: skip
 #: Side words (relative to the observer): word -> "left" | "right" | "middle".
 SIDES: dict[str, str] = {
     "left": "left", "leftmost": "left", "rightmost": "right", "right": "right",

@@ -23,6 +23,7 @@ from causalsplat.reason._grammar import (
     EXTREMES,
     FUNCTION_WORDS,
     GENERIC_TARGETS,
+    INFINITIVE_HEADS,
     SIDES,
     SPATIAL_NOUNS,
 )
@@ -221,3 +222,11 @@ def foreign_at(index: CategoryIndex, tokens: tuple[str, ...], i: int) -> Mention
     lemma = lex.lemma(tokens[i])
     cats, score = _best(index.resolve_foreign(lemma))
     return Mention(i, i + 1, lemma, cats, score, plural=lemma != tokens[i])
+
+
+def infinitive_verb_at(index: CategoryIndex, tokens: tuple[str, ...], i: int) -> bool:
+    """Whether the word at ``i`` is a verb after an infinitive's "to" ("I want to
+    shower", "something to iron with"), not a noun naming a category."""
+    if i < 2 or tokens[i - 1] != "to" or tokens[i - 2] not in INFINITIVE_HEADS:
+        return False
+    return bool(index.lexicon.verb_senses(tokens[i]))

@@ -146,3 +146,14 @@ def test_what_needs_watering_is_what_is_watered(reasoner: OfflineReasoner) -> No
     dry = reasoner.answer("which thing needs watering?", _room("sink", "shower", "table", "chair"))
     assert dry.entity_ids == () and dry.nothing_fits, dry.explanation
     assert patient_verb(("clothes", "that", "need", "washing"), LEX) is None
+
+
+def test_a_verb_after_to_is_the_need_not_a_thing_it_acts_on(reasoner: OfflineReasoner) -> None:
+    # "to shower", "to iron": verbs; the shower and the iron are what answers the need,
+    # not what the need is done to (as the towel in "hang my towel" is)
+    bathroom = _room("towel", "washcloth", "shower", "toilet", "curtain")
+    shower = reasoner.answer("I want to shower.", bathroom)
+    assert set(shower.categories) == {"shower"}, shower.explanation
+    laundry = _room("iron", "ironing board", "basket", "shelf")
+    iron = reasoner.answer("I need something to iron with", laundry)
+    assert "iron" in iron.categories, iron.explanation
