@@ -15,12 +15,7 @@ from dataclasses import dataclass
 
 from causalsplat.colors import is_color_word
 from causalsplat.reason import _grammar as g
-from causalsplat.reason._mentions import (
-    CategoryIndex,
-    foreign_at,
-    infinitive_verb_at,
-    mention_at,
-)
+from causalsplat.reason._mentions import CategoryIndex, foreign_at, mention_at
 from causalsplat.reason._text import ORDINALS
 from queries import Metric, Op
 
@@ -176,8 +171,6 @@ def read_items(
             i += 1
             continue
         mention = mention_at(index, tokens, i)
-        if mention is not None and mention.end == i + 1 and infinitive_verb_at(index, tokens, i):
-            mention = None  # "I want to shower": a verb, not the shower
         if mention is not None:
             mods = [m for _, m in pending]
             previous = items[-1] if items else None
@@ -200,8 +193,6 @@ def read_items(
             i += 1
             continue
         foreign = foreign_at(index, tokens, i)
-        if foreign is not None and foreign.end == i + 1 and infinitive_verb_at(index, tokens, i):
-            foreign = None
         if foreign is not None:
             items.append(Item(i, foreign.end, np=_noun_phrase(foreign, [m for _, m in pending])))
             pending.clear()

@@ -176,7 +176,8 @@ def _is_noun_word(lex: Lexicon, word: str) -> bool:
 
 def mention_at(index: CategoryIndex, tokens: tuple[str, ...], i: int) -> Mention | None:
     """The longest mention starting at token ``i`` that names a scene category, or a
-    generic target word; ``None`` otherwise."""
+    generic target word; ``None`` otherwise (also for one word that is a verb after an
+    infinitive's "to": :func:`infinitive_verb_at`)."""
     if tokens[i] in GENERIC_TARGETS:
         return Mention(i, i + 1, tokens[i], (), 0.0, generic=True, plural=tokens[i].endswith("s"))
     if tokens[i] in FUNCTION_WORDS and (i == 0 or tokens[i - 1] not in DETERMINERS):
@@ -185,6 +186,8 @@ def mention_at(index: CategoryIndex, tokens: tuple[str, ...], i: int) -> Mention
         words = tokens[i : i + length]
         if any(w in (",", ".", "?") for w in words):
             continue
+        if length == 1 and infinitive_verb_at(index, tokens, i):
+            continue  # "I want to shower": the verb, not the shower
         found = index.lookup(words)
         if found:
             cats, score = _best(found)
@@ -215,7 +218,7 @@ def foreign_at(index: CategoryIndex, tokens: tuple[str, ...], i: int) -> Mention
             ):
                 return None  # "computer monitor", "round table": the head names a category
             return Mention(i, i + length, lemma, cats, score)
-    if not _is_noun_word(lex, tokens[i]):
+    if not _is_noun_word(lex, tokens[i]) or infinitive_verb_at(index, tokens, i):
         return None
     if i + 1 < len(tokens) and mention_at(index, tokens, i + 1) is not None:
         return None  # a noun modifying the next one: "office chair", "dresser cabinet"

@@ -56,7 +56,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from causalsplat.reason._grammar import ACTION_STOPWORDS, DETERMINERS, PARTICLES, state_at
-from causalsplat.reason._mentions import CategoryIndex, infinitive_verb_at, mention_at
+from causalsplat.reason._mentions import CategoryIndex, mention_at
 from causalsplat.reason._verbs import (
     NeedVerbs,
     affords_verb,
@@ -439,8 +439,6 @@ class Grounder:
         i = start
         while i < len(tokens):
             m = mention_at(self.index, tokens, i)
-            if m is not None and m.end == i + 1 and infinitive_verb_at(self.index, tokens, i):
-                m = None  # "want to shower": the verb, not the shower
             if m is None or m.generic or any(a <= i < b for a, b in relations):
                 i += 1 if m is None or m.generic else m.end - i
                 continue

@@ -575,12 +575,12 @@ class _Reader:
             np.is_any
             and np.mention is not None
             and not self.target.is_any
-            and (_modifiers_of(np) or not (k > 0 and self.items[k - 1].conjunction))
+            and (_modified(np) or not (k > 0 and self.items[k - 1].conjunction))
         ):
             # "the coffee table is the furthest left one", "there are six benches, and you
             # want the leftmost one": "one" is the target again, and what singles it out
             # singles out the target
-            self.mods.extend(_modifiers_of(np))
+            self.target = _merge_modifiers(self.target, np)
         elif k > 0 and self.items[k - 1].conjunction and not self.constraints:
             self.target = replace(self.target, coordinated=(*self.target.coordinated, np))
         else:
@@ -720,21 +720,14 @@ def _with_modifiers(np: NounPhrase, mods: list[Modifier]) -> NounPhrase:
     )
 
 
-def _modifiers_of(np: NounPhrase) -> list[Modifier]:
-    """A phrase's modifiers, as items (to hand them to another phrase)."""
-    mods = [Modifier("attribute", a) for a in np.attributes]
-    mods += [Modifier("extreme", metric=m, direction=d) for m, d in np.extremes]
-    if np.side:
-        mods.append(Modifier("side", np.side))
-    if np.place:
-        mods.append(Modifier("place", np.place, negated=np.place_negated))
-    if np.ordinal:
-        mods.append(Modifier("ordinal", number=np.ordinal))
-    return mods
+def _modified(np: NounPhrase) -> bool:
+    """Whether anything besides its noun singles the phrase out."""
+    return bool(np.attributes or np.extremes or np.side or np.place or np.ordinal)
 
 
 def _merge_modifiers(subject: NounPhrase, target: NounPhrase) -> NounPhrase:
-    """ "where is the cup" -> the cup (with the wh-phrase's modifiers)."""
+    """ "where is the cup" -> the cup (with the wh-phrase's modifiers); "the table is the
+    leftmost one" -> the table (with the one's)."""
     return replace(
         subject,
         attributes=(*subject.attributes, *target.attributes),
