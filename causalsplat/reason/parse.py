@@ -158,6 +158,8 @@ def parse_instruction(text: str, index: CategoryIndex) -> Instruction:
                            closure=bool(g.CLOSURE_TRIGGERS.search(joined)))  # fmt: skip
     action = _action_words(main_tokens, items)
     purpose, fetch = _purpose(main_tokens)
+    if purpose is None:
+        purpose, fetch = _imperative(main_tokens, index)
     wants = (
         g.ACTION_TRIGGERS.search(joined)
         or purpose is not None
@@ -260,6 +262,40 @@ def _purpose(tokens: tuple[str, ...]) -> tuple[int | None, bool]:
     start = len(joined[: m.end()].split())
     rest = [t for t in tokens[start:] if t not in ("me", "us", "to", "go", "and")]
     return start, bool(rest) and rest[0] in g.FETCH_VERBS
+
+
+#: Words after an imperative's verb that show it is one ("store *my* dishes", "dry *the*
+#: plates", "warm *up*"): what it acts on, or its particle.
+_AFTER_IMPERATIVE = frozenset({"my", "your", "our", "his", "her", "their", "some", "a", "an",
+                               "the", "this", "these", "those", "me", "us", "it", "them",
+                               "up", "down", "off", "out"})  # fmt: skip
+
+
+def _imperative(tokens: tuple[str, ...], index: CategoryIndex) -> tuple[int | None, bool]:
+    """A need said as a command ("store my dishes", "warm up the soup", "please dry my
+    hair"): the sentence opens with a verb in its base form that names no scene category,
+    is no light, picking or viewpoint verb ("find", "choose", "facing"), and is followed
+    by what it acts on or its particle. Its purpose clause is the whole sentence. A verb
+    of getting or finding ("grab a towel", "locate the lamp") asks for its object, as a
+    description does; ``(None, False)`` for it and anything else ("picture above the
+    bed")."""
+    i = 1 if tokens[:1] == ("please",) else 0
+    if len(tokens) < i + 2 or tokens[i + 1] not in _AFTER_IMPERATIVE:
+        return None, False
+    verb = tokens[i]
+    if (
+        verb in g.FUNCTION_WORDS
+        or verb in g.VIEW_TRIGGERS
+        or verb in g.WH_WORDS
+        or verb in _PICKING
+        or verb in g.FETCH_VERBS
+        or verb in index.lexicon.colors
+        or index.lookup((verb,)) is not None
+        or not index.lexicon.verb_senses(verb)
+        or index.lexicon.lemma(verb, "v") != verb
+    ):
+        return None, False
+    return i, False
 
 
 def _names_what_is_wanted(target: NounPhrase | None, purpose: int | None, fetch: bool) -> bool:

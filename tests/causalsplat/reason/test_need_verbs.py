@@ -157,3 +157,27 @@ def test_a_verb_after_to_is_the_need_not_a_thing_it_acts_on(reasoner: OfflineRea
     laundry = _room("iron", "ironing board", "basket", "shelf")
     iron = reasoner.answer("I need something to iron with", laundry)
     assert "iron" in iron.categories, iron.explanation
+
+
+@pytest.mark.parametrize(
+    ("text", "answer"),
+    [
+        ("warm up the soup", {"stove"}),
+        ("please dry my hands", {"towel"}),
+        ("wash the dishes", {"sink"}),
+        # a verb of getting or finding asks for its object, as a description does
+        ("grab a towel", {"towel"}),
+        ("locate the lamp", {"lamp"}),
+        # a noun that is also a verb ("to picture") stays a description
+        ("picture above the bed", {"picture"}),
+        ("Lamp next to the bed", {"lamp"}),
+    ],
+)
+def test_a_need_said_as_a_command(reasoner: OfflineReasoner, text: str, answer: set[str]) -> None:
+    kitchen = _room("plate", "stove", "pot", "table", "cabinet", "towel", "sink", "picture",
+                    "bed", "lamp")  # fmt: skip
+    got = reasoner.answer(text, kitchen)
+    assert set(got.categories) == answer, got.explanation
+    command = text not in ("grab a towel", "locate the lamp", "picture above the bed",
+                           "Lamp next to the bed")  # fmt: skip
+    assert got.explanation.startswith("read as: an action") is command, got.explanation
