@@ -260,7 +260,7 @@ def _build(
             assignment = assign_instances(
                 field, evidence, config.instances,
                 means=folder.gaussians.means, scales=folder.gaussians.scales,
-                quats=folder.gaussians.quats,
+                quats=folder.gaussians.quats, mask_labels=_mask_labels(folder, evidence),
             )  # fmt: skip
             cache.put("instances", inst_key, _encode_assignment(assignment))
     if labeler is None and config.labeler == "vlm":
@@ -466,6 +466,17 @@ def _graph(
     )
     return SceneGraph(meta=meta, entities=entities, relations=relations, views=views,
                       masks=masks)  # fmt: skip
+
+
+def _mask_labels(folder: SceneFolder, evidence: MaskEvidence) -> list[str | None] | None:
+    """The label of each usable mask (rows of ``evidence``), ``None`` where its view's
+    masks carry none; ``None`` when no view's do."""
+    if all(m.labels is None for m in folder.masks):
+        return None
+    return [
+        None if (labels := folder.masks[int(v)].labels) is None else str(labels[int(i)])
+        for v, i in zip(evidence.view, evidence.index, strict=True)
+    ]
 
 
 def _surfaces(

@@ -7,8 +7,10 @@
    same, one object seen many times) it is run again allowing a single cluster.
 2. Each cluster ``k`` has the centre ``C_k = Norm(mean of its mask features)``. Clusters
    whose masks draw the same Gaussians from different views and whose centres agree are
-   merged (multi-view consensus, :mod:`causalsplat.instances.consensus`), and the
-   centres taken again.
+   merged (multi-view consensus, :mod:`causalsplat.instances.consensus`); so are the
+   clusters most of whose masks are labelled as the floor, or as the ceiling, when the
+   masks carry labels (:mod:`causalsplat.instances.structures`); and the centres are
+   taken again.
 3. Each supervised Gaussian takes ``argmax_k f·C_k`` (``assignment="feature"``, the
    method's rule) or, by default (``assignment="vote"``), the cluster its views vote for:
    every view in which the Gaussian is drawn inside clustered masks casts one vote, split
@@ -24,7 +26,8 @@
 4. Weakly seen Gaussians (evidence below ``min_evidence`` times the median: seen mostly
    through an occluder, whose masks they vote for) and active Gaussians still unassigned
    take their entity from the well-seen ones along the surface graph (edges at most
-   ``propagate_sigmas`` median scales long; see :mod:`causalsplat.instances.propagate`).
+   ``propagate_sigmas`` median scales long, weighted by the agreement of the two
+   Gaussians' features; see :mod:`causalsplat.instances.propagate`).
    Those the graph does not connect to any well-seen Gaussian (or connects by weights too
    small to carry a probability) keep their vote, or stay -1; pruned Gaussians stay -1.
 Entity ids are 0..K-1 in the order of each cluster's first mask (view order, then mask
@@ -33,6 +36,7 @@ order), so they do not depend on HDBSCAN's label numbering.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -43,8 +47,9 @@ from causalsplat.errors import MissingDependencyError
 from causalsplat.field.types import FeatureField, MaskEvidence
 from causalsplat.field.weights import normalize_rows
 from causalsplat.instances.config import InstanceConfig
-from causalsplat.instances.consensus import merged_clusters
-from causalsplat.instances.propagate import harmonic_labels, surface_graph
+from causalsplat.instances.consensus import joined_clusters, overlaps
+from causalsplat.instances.propagate import feature_weighted, harmonic_labels, surface_graph
+from causalsplat.instances.structures import cluster_labels, structure_pairs
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -125,11 +130,14 @@ def assign_instances(
     means: np.ndarray,
     scales: np.ndarray,
     quats: np.ndarray | None = None,
+    mask_labels: Sequence[str | None] | None = None,
 ) -> InstanceAssignment:
     """Cluster the masks and give every Gaussian an entity (module docstring).
 
     ``means`` (N, 3), ``scales`` (N, 3) and ``quats`` (N, 4, wxyz) of the scene build the
     surface graph of step 4; without ``quats`` its edges weigh distance only.
+    ``mask_labels`` (M,): each usable mask's label (``None`` where it has none), for
+    ``InstanceConfig.merge_structures``; without them no cluster is joined by its label.
     """
     raw = cluster_masks(evidence.features, config)
     n_clusters = int(raw.max()) + 1 if raw.size else 0
@@ -142,13 +150,22 @@ def assign_instances(
     feats = evidence.features.astype(np.float64)
     centers = _centers(feats, cluster, len(order), field.dim)
     votes: sp.csr_matrix | None = None
-    if config.merge_overlap < 1 and len(order) > 1:
+    structures = config.merge_structures if mask_labels is not None else ()
+    if (config.merge_overlap < 1 or structures) and len(order) > 1:
         # clusters whose masks draw the same Gaussians, with features alike, are one
-        # object seen from two sides (consensus.py); the views' votes serve the merge and,
-        # their merged clusters' columns summed, the assignment
+        # object seen from two sides (consensus.py), and the clusters of the floor or the
+        # ceiling are one (structures.py); the views' votes serve the merge and, their
+        # merged clusters' columns summed, the assignment
         votes, vote_rows = _view_votes(evidence, cluster, len(order))
-        alike = centers.astype(np.float64) @ centers.T.astype(np.float64) >= config.merge_cosine
-        merged = merged_clusters(cluster, votes, config.merge_overlap, alike)
+        together = np.eye(len(order), dtype=bool)
+        if config.merge_overlap < 1:
+            alike = centers.astype(np.float64) @ centers.T.astype(np.float64)
+            together |= (overlaps(votes) >= config.merge_overlap) & (alike >= config.merge_cosine)
+        if structures:
+            assert mask_labels is not None
+            together |= structure_pairs(cluster_labels(cluster, mask_labels, len(order)),
+                                        structures)  # fmt: skip
+        merged = joined_clusters(cluster, together)
         n = int(merged.max()) + 1 if (merged >= 0).any() else 0
         if n < len(order):
             votes = _merge_columns(votes, cluster, merged, n)
@@ -342,6 +359,9 @@ def _propagate(
         np.asarray(means)[active], sizes, None if quats is None else np.asarray(quats)[active],
         k=config.propagate_neighbors, radius=radius, coplanar=config.propagate_coplanar,
     )  # fmt: skip
+    if config.propagate_feature_power > 0:
+        graph = feature_weighted(graph, field.features[active], config.propagate_feature_power,
+                                 field.supervised[active])  # fmt: skip
     out = labels.copy()
     out[active] = harmonic_labels(graph, labels[active], fixed)
     return out

@@ -70,6 +70,14 @@ def merged_clusters(
     together = overlaps(votes) >= threshold
     if alike is not None:
         together &= alike
+    return joined_clusters(cluster, together)
+
+
+def joined_clusters(cluster: np.ndarray, together: np.ndarray) -> np.ndarray:
+    """Each mask's cluster after joining the clusters ``together`` (K, K) marks
+    (transitively), renumbered 0.. in the order of each joined cluster's first mask; -1
+    stays -1."""
+    k = together.shape[0]
     _, component = connected_components(sp.csr_matrix(together), directed=False)
     merged = np.where(cluster >= 0, component[np.maximum(cluster, 0)], -1)
     _, first = np.unique(merged, return_index=True)

@@ -159,3 +159,37 @@ def test_floor_seen_through_a_table_goes_to_the_floor() -> None:
     keep = InstanceConfig(min_gaussians=1, min_evidence=0.01)
     kept = assign_instances(field, evidence, keep, means=means, scales=scales, quats=quats)
     assert np.all(kept.labels[under] == kept.labels[-1])
+
+
+def _hidden_side() -> tuple[FeatureField, MaskEvidence, np.ndarray, np.ndarray]:
+    """A row of round Gaussians: 0-7 a cabinet panel (cabinet masks), 8-11 the barely seen
+    side of a microwave beside it (2 % weight in the microwave masks, features of the
+    microwave), 12-15 the microwave's front (microwave masks), 0.15 further on. By
+    distance alone the side continues the panel (0.1 away) more than the front."""
+    x = np.concatenate([np.arange(12) * 0.1, 1.25 + np.arange(4) * 0.1])
+    means = np.stack([x, np.zeros(16), np.zeros(16)], axis=1)
+    e1, e2 = np.eye(3)[0], np.eye(3)[1]
+    feats = np.array([e2] * 8 + [e1] * 8, dtype=np.float32)
+    w = np.zeros((6, 16))
+    for v in range(3):
+        w[2 * v, :8] = 1.0
+        w[2 * v + 1, 12:] = 1.0
+        w[2 * v + 1, 8:12] = 0.02
+    field = FeatureField(feats, np.ones(16, bool), np.ones(16, bool), (),
+                         FieldConfig(feature_dim=3))  # fmt: skip
+    evidence = MaskEvidence(
+        view=np.repeat(np.arange(3), 2), index=np.tile([0, 1], 3), pixel_weight=np.ones(6),
+        features=np.array([e2, e1] * 3, dtype=np.float32), gaussian_weight=sp.csr_matrix(w),
+    )  # fmt: skip
+    return field, evidence, means, np.full((16, 3), 0.07)
+
+
+def test_a_barely_seen_side_follows_its_features_not_the_surface_it_touches() -> None:
+    field, evidence, means, scales = _hidden_side()
+    config = InstanceConfig(min_gaussians=1)
+    out = assign_instances(field, evidence, config, means=means, scales=scales)
+    cabinet, microwave = out.labels[0], out.labels[-1]
+    assert out.labels.tolist() == [cabinet] * 8 + [microwave] * 8
+    plain = InstanceConfig(min_gaussians=1, propagate_feature_power=0.0)
+    out = assign_instances(field, evidence, plain, means=means, scales=scales)
+    assert (out.labels[8:12] == cabinet).sum() >= 2
