@@ -30,7 +30,11 @@
    Gaussians' features; see :mod:`causalsplat.instances.propagate`).
    Those the graph does not connect to any well-seen Gaussian (or connects by weights too
    small to carry a probability) keep their vote, or stay -1; pruned Gaussians stay -1.
-Entity ids are 0..K-1 in the order of each cluster's first mask (view order, then mask
+5. An entity whose Gaussians lie in pieces more than ``split_gap`` median Gaussian sizes
+   apart is split where its masks say (:mod:`causalsplat.instances.pieces`): no object is
+   two pieces metres apart, but the few masks of a window can join the cluster of a box
+   across the room. The floor and the ceiling are never split.
+Entity ids are 0..K-1 in the order of each entity's first mask (view order, then mask
 order), so they do not depend on HDBSCAN's label numbering.
 """
 
@@ -48,8 +52,13 @@ from causalsplat.field.types import FeatureField, MaskEvidence
 from causalsplat.field.weights import normalize_rows
 from causalsplat.instances.config import InstanceConfig
 from causalsplat.instances.consensus import joined_clusters, overlaps
+from causalsplat.instances.pieces import split_pieces
 from causalsplat.instances.propagate import feature_weighted, harmonic_labels, surface_graph
 from causalsplat.instances.structures import cluster_labels, structure_pairs
+
+#: A piece of an entity must hold this share of its Gaussians to become an entity of its
+#: own (step 5): a few stray Gaussians are no object.
+PIECE_SHARE = 0.2
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -187,14 +196,57 @@ def assign_instances(
     labels = remap[labels]
     voted = labels
     labels = _propagate(voted, field, evidence, means, scales, quats, config)
+    score = np.where((labels >= 0) & (labels == voted), score, 0.0)
+    mask_entity = remap[cluster]
+    centers = centers[kept]
+    if config.split_gap > 0 and kept.size:
+        labels, mask_entity = _split(labels, mask_entity, evidence, means, scales, config,
+                                     mask_labels)  # fmt: skip
+        labels, mask_entity = _by_first_mask(labels, mask_entity)
+        n = int(mask_entity.max()) + 1 if (mask_entity >= 0).any() else 0
+        centers = _centers(feats, mask_entity, n, field.dim)
     return InstanceAssignment(
         labels=labels,
-        mask_entity=remap[cluster],
-        centers=centers[kept].astype(np.float32),
-        score=np.where((labels >= 0) & (labels == voted), score, 0.0).astype(np.float32),
+        mask_entity=mask_entity,
+        centers=centers.astype(np.float32),
+        score=score.astype(np.float32),
         n_clusters=n_clusters,
         n_noise_masks=int((raw < 0).sum()),
     )
+
+
+def _split(
+    labels: np.ndarray,
+    mask_entity: np.ndarray,
+    evidence: MaskEvidence,
+    means: np.ndarray,
+    scales: np.ndarray,
+    config: InstanceConfig,
+    mask_labels: Sequence[str | None] | None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Entities in far-apart pieces split (step 5, :mod:`causalsplat.instances.pieces`);
+    the floor and the ceiling are one entity however far apart their parts."""
+    size = float(np.median(np.max(np.asarray(scales, dtype=np.float64), axis=1)))
+    if not (np.isfinite(size) and size > 0):
+        return labels, mask_entity
+    keep: set[int] = set()
+    if mask_labels is not None and config.merge_structures:
+        k = int(mask_entity.max()) + 1 if (mask_entity >= 0).any() else 0
+        named = cluster_labels(mask_entity, mask_labels, k)
+        keep = {e for e, name in enumerate(named) if name in config.merge_structures}
+    return split_pieces(labels, mask_entity, evidence.gaussian_weight, means,
+                        gap=config.split_gap * size, min_share=PIECE_SHARE,
+                        min_gaussians=config.min_gaussians, keep=keep)  # fmt: skip
+
+
+def _by_first_mask(labels: np.ndarray, mask_entity: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Entity ids renumbered 0.. in the order of each entity's first mask."""
+    _, first = np.unique(mask_entity, return_index=True)
+    order = [int(mask_entity[i]) for i in sorted(first) if mask_entity[i] >= 0]
+    size = max(int(labels.max(initial=-1)), int(mask_entity.max(initial=-1))) + 2
+    index_of = np.full(size, -1, dtype=np.int64)
+    index_of[order] = np.arange(len(order))
+    return index_of[labels], index_of[mask_entity]
 
 
 def _centers(feats: np.ndarray, cluster: np.ndarray, k: int, dim: int) -> np.ndarray:
