@@ -424,7 +424,9 @@ def _built(tmp: Path, quick: bool) -> tuple[list[str], dict[str, Any]]:
         "asked; answers are scored against the GT instance of every Gaussian "
         "(`causalsplat eval --gt-labels`): an entity stands for the GT instance holding most "
         "of its Gaussians, 3D IoU on the Gaussians. ScanNet queries are the scene's Sr3D, "
-        "Nr3D and ScanRefer utterances with a target id (all of them: the scan is one scene).",
+        "Nr3D and ScanRefer utterances with a target id (all of them: the scan is one scene). "
+        "The GT-objects rows ask the same questions of the scene's ground-truth objects "
+        "(`ingest-objects`; 3D IoU of the boxes).",
         "",
         "| scene | level | n | accuracy | 3D mIoU |",
         "|---|---|---:|---:|---:|",
@@ -432,7 +434,11 @@ def _built(tmp: Path, quick: bool) -> tuple[list[str], dict[str, Any]]:
     data: dict[str, Any] = {}
     examples: list[str] = []
     showcase: list[str] = []
-    with open_store(f"sqlite:///{tmp / 'built.db'}") as store:
+    gaps: list[str] = []
+    with (
+        open_store(f"sqlite:///{tmp / 'built.db'}") as store,
+        open_store(f"sqlite:///{tmp / 'built-truth.db'}") as truths,
+    ):
         for label, folder in folders:
             scene = store.build(folder, cache_dir=tmp / "cache")
             report = scene.evaluate(folder / "queries.json", gt_labels=folder / "gt/gt_labels.npy")
@@ -440,6 +446,16 @@ def _built(tmp: Path, quick: bool) -> tuple[list[str], dict[str, Any]]:
                 lines.append(f"| {label} | {level} | {score.n} | {_pct(score.accuracy)} "
                              f"| {score.miou:.3f} |")  # fmt: skip
             data[f"built/{label}"] = report.overall.to_dict()
+            # the same questions on the scene's GT objects: what the build loses
+            truth = truths.ingest_objects(folder / "objects.json", scene_id=scene.id)
+            on_truth = truth.evaluate(folder / "queries.json").overall
+            lines.append(f"| {label}, GT objects (same questions) | **all** | {on_truth.n} "
+                         f"| {_pct(on_truth.accuracy)} | {on_truth.miou:.3f} |")  # fmt: skip
+            data[f"built/{label}/gt-objects"] = on_truth.to_dict()
+            gap = 100 * (on_truth.accuracy - report.overall.accuracy)
+            gaps.append(f"{label}: {_pct(on_truth.accuracy)} on its GT objects, "
+                        f"{_pct(report.overall.accuracy)} built, a fidelity gap of "
+                        f"{gap:.1f} points")  # fmt: skip
             if label.startswith("ScanNet"):
                 for level, text in SHOWCASE:
                     answer = scene.ask(text)
@@ -455,6 +471,11 @@ def _built(tmp: Path, quick: bool) -> tuple[list[str], dict[str, Any]]:
                 for level, o in sorted(shown.items())
             ]  # fmt: skip
     lines += [
+        "",
+        "**Fidelity gap** (the same questions asked of the scene's GT objects, stored from its "
+        "`objects.json`, in the same run; the gap is what the build loses): "
+        + "; ".join(gaps)
+        + ".",
         "",
         "One question of each level per built scene, with its answer (GT instance ids):",
         "",
