@@ -51,3 +51,17 @@ def test_contradicted_variants_fit_no_object_of_the_target_label(tmp_path: Path)
                 assert rgb is not None and names_of(rgb)[0] != ("gray" if new == "grey" else new)
     finally:
         graphs.close()
+
+
+def test_built_scenes_sit_beside_the_same_questions_on_their_gt_objects(tmp_path: Path) -> None:
+    from causalsplat.bench.reasoning import _built
+
+    lines, data = _built(tmp_path, quick=True)
+    built = data["built/synthetic tiny (seed 0)"]
+    truth = data["built/synthetic tiny (seed 0)/gt-objects"]
+    assert built["n"] == truth["n"] > 0
+    assert truth["accuracy"] >= built["accuracy"] - 0.2
+    text = "\n".join(lines)
+    assert "| synthetic tiny (seed 0), GT objects (same questions) | **all** |" in text
+    gap = 100 * (truth["accuracy"] - built["accuracy"])
+    assert f"a fidelity gap of {gap:.1f} points" in text
