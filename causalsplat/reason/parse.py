@@ -275,10 +275,12 @@ def _imperative(tokens: tuple[str, ...], index: CategoryIndex) -> tuple[int | No
     """A need said as a command ("store my dishes", "warm up the soup", "please dry my
     hair"): the sentence opens with a verb in its base form that names no scene category,
     is no light, picking or viewpoint verb ("find", "choose", "facing"), and is followed
-    by what it acts on or its particle. Its purpose clause is the whole sentence. A verb
-    of getting or finding ("grab a towel", "locate the lamp") asks for its object, as a
-    description does; ``(None, False)`` for it and anything else ("picture above the
-    bed")."""
+    by what it acts on or its particle. Its purpose clause is the whole sentence, and
+    what it acts on is the thing meant when the scene has it by name ("open the fridge",
+    "make the bed"): only a command on something the scene does not hold asks what would
+    serve ("warm up the soup": the stove). A verb of getting or finding ("grab a towel",
+    "locate the lamp") is left to the description it opens; ``(None, False)`` for it and
+    anything else ("picture above the bed")."""
     i = 1 if tokens[:1] == ("please",) else 0
     if len(tokens) < i + 2 or tokens[i + 1] not in _AFTER_IMPERATIVE:
         return None, False
@@ -295,7 +297,7 @@ def _imperative(tokens: tuple[str, ...], index: CategoryIndex) -> tuple[int | No
         or index.lexicon.lemma(verb, "v") != verb
     ):
         return None, False
-    return i, False
+    return i, True
 
 
 def _names_what_is_wanted(target: NounPhrase | None, purpose: int | None, fetch: bool) -> bool:
