@@ -137,7 +137,7 @@ class Store:
         scene_id: str | None = None,
         if_exists: IfExists = "fail",
     ) -> Scene:
-        """Store the scene graph of an objects file (DESIGN §9) and return its handle."""
+        """Store the scene graph of an objects file (docs/formats.md) and return its handle."""
         from causalsplat.objects import objects_graph
 
         return self.save_scene(objects_graph(path, scene_id=scene_id), if_exists=if_exists)
@@ -152,7 +152,7 @@ class Store:
         cache_dir: str | Path | bool | None = True,
         progress: bool = False,
     ) -> Scene:
-        """Build a scene folder (DESIGN §9) into a scene graph and store it with its
+        """Build a scene folder (docs/formats.md) into a scene graph and store it with its
         per-Gaussian labels; returns the scene handle.
 
         ``config`` is a :class:`~causalsplat.build.config.BuildConfig` or the path of its
@@ -486,7 +486,7 @@ class Scene:
         gt_labels: str | Path | np.ndarray | None = None,
         **options: Any,
     ) -> EvalReport:
-        """Accuracy, 3D mIoU and F1 of a reasoner over a queries file (DESIGN §9), overall
+        """Accuracy, 3D mIoU and F1 of a reasoner over a queries file (docs/formats.md), overall
         and per reasoning type (the numbers of ``causalsplat eval``).
 
         ``gt_labels`` (an ``.npy`` path or an array: the GT instance of every Gaussian)

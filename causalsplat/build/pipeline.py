@@ -198,7 +198,7 @@ def build_scene(
     progress: bool = False,
     labeler: Labeler | None = None,
 ) -> BuildResult:
-    """Build the scene graph of a scene folder (DESIGN §9) and return it with its report.
+    """Build the scene graph of a scene folder (docs/formats.md) and return it with its report.
 
     ``scene_id`` defaults to the ``scene_id`` of the folder's ``queries.json`` or
     ``objects.json``, else the folder's name. ``cache_dir``: a directory, ``True`` for the

@@ -24,7 +24,7 @@ def _frozen(arr: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True, slots=True, eq=False)
 class MaskSet:
-    """The masks of one view (DESIGN §9 ``masks/<image stem>.npz``).
+    """The masks of one view (``masks/<image stem>.npz``, docs/formats.md).
 
     Attributes:
         view: the view's image stem (``images/<view>.png`` ↔ ``masks/<view>.npz``).

@@ -25,7 +25,7 @@ class UnknownReasonerError(ReasonError, ValueError):
 
 
 class QueriesFileError(ReasonError, ValueError):
-    """A queries file (DESIGN §9) is malformed; the message names the file and the field."""
+    """A queries file (docs/formats.md) is malformed; the message names the file and the field."""
 
 
 class UnlabelledSceneError(ReasonError):
