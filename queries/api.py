@@ -31,10 +31,10 @@ from queries.errors import QueryExecutionError
 from queries.model import GraphQuery
 from queries.result import QueryResult
 from queries.semantics import DEFAULT_CONFIG, QueryConfig
-from queries.sparql_endpoints import SparqlBackendName
 
 if TYPE_CHECKING:
     from graph_store.repository import GraphStore
+    from queries.sparql_endpoints import SparqlBackendName
 
 ExecutorName = Literal["networkx", "memory", "sql", "sparql"]
 EXECUTORS: tuple[str, ...] = ("networkx", "memory", "sql", "sparql")

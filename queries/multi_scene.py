@@ -34,10 +34,10 @@ from queries.errors import QueryExecutionError
 from queries.model import GraphQuery
 from queries.result import QueryResult, StepValue
 from queries.semantics import DEFAULT_CONFIG, QueryConfig
-from queries.sparql_endpoints import SparqlBackendName
 
 if TYPE_CHECKING:
     from graph_store.repository import GraphStore
+    from queries.sparql_endpoints import SparqlBackendName
 
 #: Which scenes: ``None`` (all stored), a glob, or scene ids.
 SceneSelection = str | Sequence[str] | None

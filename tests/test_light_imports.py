@@ -39,7 +39,8 @@ for text in sys.argv[1:]:
         main()
     except SystemExit as exc:
         assert not exc.code, exc.code
-heavy = ("torch", "networkx", "sqlalchemy.orm", "tomllib", "safetensors", "scipy")
+heavy = ("torch", "networkx", "sqlalchemy.orm", "tomllib", "safetensors", "scipy",
+         "rdflib", "pyoxigraph")
 print(",".join(sorted(m for m in heavy if m in sys.modules)), file=sys.stderr)
 """
 
@@ -47,7 +48,8 @@ print(",".join(sorted(m for m in heavy if m in sys.modules)), file=sys.stderr)
 def test_a_cold_ask_imports_only_what_it_uses(tmp_path: Path) -> None:
     """``causalsplat ask`` in a fresh interpreter, lexical and with embeddings: no torch,
     no networkx (the reference executor walks plain dicts), no ORM (Core tables), no TOML
-    parser (the knowledge table ships as JSON), no safetensors (weights are memory-mapped)."""
+    parser (the knowledge table ships as JSON), no safetensors (weights are memory-mapped),
+    no RDF library (the programs run on the memory executor, not SPARQL)."""
     from causalsplat.objects import objects_to_scene_graph, parse_objects
     from causalsplat.reason.embed import embeddings_available
     from graph_store import open_store
