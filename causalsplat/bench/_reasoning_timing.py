@@ -45,15 +45,22 @@ class ColdTiming:
 
 
 def _run(args: list[str], repeats: int) -> tuple[float, float, str]:
-    """Median wall and CPU (user + system) seconds of a child process, and its stderr."""
+    """Median wall and CPU (user + system) seconds of a child process, and its stderr.
+
+    The child may write and read Python's bytecode cache, as an installed package does
+    (pip compiles it at install time), even where ``PYTHONDONTWRITEBYTECODE`` is set here;
+    an untimed first run writes it."""
+    import os
     import resource
 
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    subprocess.run(args, capture_output=True, text=True, check=True, env=env)
     times, cpu = [], []
     err = ""
     for _ in range(repeats):
         before = resource.getrusage(resource.RUSAGE_CHILDREN)
         start = time.perf_counter()
-        proc = subprocess.run(args, capture_output=True, text=True, check=True)
+        proc = subprocess.run(args, capture_output=True, text=True, check=True, env=env)
         times.append(time.perf_counter() - start)
         after = resource.getrusage(resource.RUSAGE_CHILDREN)
         cpu.append(after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime)
