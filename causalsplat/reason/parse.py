@@ -271,6 +271,21 @@ _AFTER_IMPERATIVE = frozenset({"my", "your", "our", "his", "her", "their", "some
                                "up", "down", "off", "out"})  # fmt: skip
 
 
+def _bare_object(tokens: tuple[str, ...], k: int, index: CategoryIndex) -> bool:
+    """Whether ``tokens[k]`` is the bare noun a command acts on ("cook | pasta", "boil |
+    water for tea"): a noun that names no scene category, alone or with the word before
+    it ("trash can", "shower curtain" and "file cabinet" are things, not commands), and
+    after which the sentence ends or says only what for."""
+    word = tokens[k]
+    lexicon = index.lexicon
+    if not word.isalpha() or word in g.FUNCTION_WORDS or not lexicon.has_noun(lexicon.lemma(word)):
+        return False
+    if index.lookup((word,)) is not None or index.lookup(tokens[k - 1 : k + 1]) is not None:
+        return False
+    rest = [t for t in tokens[k + 1 :] if t.isalnum()]
+    return not rest or rest[0] == "for"
+
+
 def _imperative(tokens: tuple[str, ...], index: CategoryIndex) -> tuple[int | None, bool]:
     """A need said as a command ("store my dishes", "warm up the soup", "please dry my
     hair"): the sentence opens with a verb in its base form that names no scene category,
@@ -280,9 +295,12 @@ def _imperative(tokens: tuple[str, ...], index: CategoryIndex) -> tuple[int | No
     "make the bed"): only a command on something the scene does not hold asks what would
     serve ("warm up the soup": the stove). A verb of getting or finding ("grab a towel",
     "locate the lamp") is left to the description it opens; ``(None, False)`` for it and
-    anything else ("picture above the bed")."""
+    anything else ("picture above the bed"). What it acts on may be a bare noun when the
+    command says nothing more (:func:`_bare_object`: "cook pasta", "boil water")."""
     i = 1 if tokens[:1] == ("please",) else 0
-    if len(tokens) < i + 2 or tokens[i + 1] not in _AFTER_IMPERATIVE:
+    if len(tokens) < i + 2:
+        return None, False
+    if tokens[i + 1] not in _AFTER_IMPERATIVE and not _bare_object(tokens, i + 1, index):
         return None, False
     verb = tokens[i]
     if (

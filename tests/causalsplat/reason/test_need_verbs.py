@@ -174,6 +174,12 @@ def test_a_verb_after_to_is_the_need_not_a_thing_it_acts_on(reasoner: OfflineRea
         # a noun that is also a verb ("to picture") stays a description
         ("picture above the bed", {"picture"}, False),
         ("Lamp next to the bed", {"lamp"}, False),
+        # a bare noun the room does not hold, and nothing more said
+        ("boil water for tea", {"stove"}, True),
+        ("dry hands", {"towel"}, True),
+        # two words that name a thing here are the thing, even when the first is a verb
+        ("table lamp", {"lamp"}, False),
+        ("plate rack", {"plate"}, False),
     ],
 )
 def test_a_need_said_as_a_command(
@@ -184,3 +190,23 @@ def test_a_need_said_as_a_command(
     got = reasoner.answer(text, kitchen)
     assert set(got.categories) == answer, got.explanation
     assert got.explanation.startswith("read as: an action") is need, got.explanation
+
+
+@pytest.mark.parametrize(
+    ("text", "kind"),
+    [
+        ("cook pasta", "action"),
+        ("boil water", "action"),
+        ("iron shirts for work", "action"),
+        # the noun is here, or the two words name a thing here, or more is said of it
+        ("trash can", "refer"),
+        ("file cabinet", "refer"),
+        ("plant pot", "refer"),
+        ("box near the door", "refer"),
+    ],
+)
+def test_a_command_on_a_bare_noun_is_a_need(
+    reasoner: OfflineReasoner, text: str, kind: str
+) -> None:
+    room = _room("trash can", "cabinet", "plant", "pot", "box", "door", "stove")
+    assert reasoner.parse(text, room).kind == kind
