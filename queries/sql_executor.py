@@ -37,6 +37,9 @@ from queries.model import GraphQuery, Op, Step
 from queries.result import QueryResult, StepValue
 from queries.semantics import DEFAULT_CONFIG, QueryConfig, SupportPath, support_paths
 
+#: Compiled programs an executor keeps (the oldest is dropped first).
+PREPARED = 64
+
 
 class SqlExecutor(Executor):
     """Runs programs with SQL on a store database (SQLite or PostgreSQL).
@@ -53,6 +56,9 @@ class SqlExecutor(Executor):
         self.engine = engine
         #: The scene's ids in order, with the scene row's version they were read under.
         self._scene_ids: tuple[Any, tuple[int, ...]] | None = None
+        #: Programs already compiled, by program and scene version: their final statement
+        #: and the steps that are the whole scene (at most :data:`PREPARED` kept).
+        self._prepared: dict[tuple[GraphQuery, tuple[Any, ...]], tuple[Any, set[int]]] = {}
         with engine.connect() as conn:
             found = conn.execute(sa.select(m.scenes.c.id).where(m.scenes.c.id == scene_id)).first()
         if found is None:
@@ -61,37 +67,46 @@ class SqlExecutor(Executor):
     def _execute(self, program: GraphQuery) -> QueryResult:
         try:
             with self.engine.connect() as conn, conn.begin():
-                return _SqlRun(conn, self.scene_id, self.config, self).run(program)
+                s = m.scenes.c
+                version = conn.execute(
+                    sa.select(s.created_at, s.entity_count).where(s.id == self.scene_id)
+                ).first()
+                if version is None:  # deleted since this executor was made
+                    raise SceneNotFound(f"no scene {self.scene_id!r} in the store")
+                return _SqlRun(conn, self.scene_id, self.config, self, tuple(version)).run(program)
         except sa.exc.DBAPIError as exc:
             reason = str(exc.orig).strip().splitlines()[0] if exc.orig else str(exc)
             raise QueryExecutionError(
                 f"the database could not run the program on scene {self.scene_id!r}: {reason}"
             ) from exc
 
-    def scene_ids(self, conn: Connection, c: SqlSteps) -> tuple[int, ...]:
+    def scene_ids(self, conn: Connection, c: SqlSteps, version: tuple[Any, ...]) -> tuple[int, ...]:
         """The scene's entity ids, ascending, read again only when the scene changed.
 
         A stored scene's entities change only when the whole scene is saved again or
-        deleted, which writes a new scene row; its ``created_at`` and ``entity_count``,
-        read in the run's own transaction, tell whether the ids read before still hold.
+        deleted, which writes a new scene row; its ``version`` (``created_at`` and
+        ``entity_count``, read in the run's own transaction) tells whether the ids read
+        before still hold.
         """
-        s = m.scenes.c
-        version = conn.execute(
-            sa.select(s.created_at, s.entity_count).where(s.id == self.scene_id)
-        ).first()
         cached = self._scene_ids
-        if version is not None and cached is not None and cached[0] == tuple(version):
+        if cached is not None and cached[0] == version:
             return cached[1]
         ids = tuple(map(itemgetter(0), raw_rows(conn, c.scene().order_by(E.c.id))))
-        self._scene_ids = None if version is None else (tuple(version), ids)
+        self._scene_ids = (version, ids)
         return ids
 
 
 class _SqlRun:
     def __init__(
-        self, conn: Connection, scene_id: str, config: QueryConfig, owner: SqlExecutor
+        self,
+        conn: Connection,
+        scene_id: str,
+        config: QueryConfig,
+        owner: SqlExecutor,
+        version: tuple[Any, ...],
     ) -> None:
         self.owner = owner
+        self.version = version
         self.conn = conn
         self.scene_id = scene_id
         self.config = config
@@ -100,9 +115,20 @@ class _SqlRun:
         self.paths: list[SupportPath] = []
 
     def run(self, program: GraphQuery) -> QueryResult:
-        for i, step in enumerate(program.steps):
-            self.ctes.append(self._compile(i, step))
-        values = self._fetch(program)
+        prepared = self.owner._prepared
+        key = (program, self.version)
+        if key in prepared:
+            statement, self.c.whole = prepared[key]
+        else:
+            for i, step in enumerate(program.steps):
+                self.ctes.append(self._compile(i, step))
+            statement = self._statement(program)
+            # a fixpoint's rounds and their support paths are read anew each run
+            if all(step.op is not Op.FALL_IF_REMOVED for step in program.steps):
+                if len(prepared) >= PREPARED:
+                    del prepared[next(iter(prepared))]
+                prepared[key] = (statement, set(self.c.whole))
+        values = self._fetch(program, statement)
         return QueryResult(
             scene_id=self.scene_id,
             program=program,
@@ -165,9 +191,9 @@ class _SqlRun:
             self.paths.extend(support_paths(i, removed, rounds, supporters))
         return set(rounds)
 
-    def _fetch(self, program: GraphQuery) -> tuple[StepValue, ...]:
-        """Every step's value: one statement for the steps that are not the whole scene
-        (their ``(step, id)`` rows), one for the scene's ids when a step is the scene."""
+    def _statement(self, program: GraphQuery) -> Any:
+        """The one statement for the steps that are not the whole scene (their ``(step,
+        id)`` rows), or ``None`` when every step is."""
         parts = []
         for i, (step, cte) in enumerate(zip(program.steps, self.ctes, strict=True)):
             tag = sa.literal(i, sa.Integer()).label("step")
@@ -181,13 +207,18 @@ class _SqlRun:
                 parts.append(sa.select(tag, flag.label("id")))
             else:
                 parts.append(sa.select(tag, cte.c.id.label("id")))
+        return sa.union_all(*parts) if parts else None
+
+    def _fetch(self, program: GraphQuery, statement: Any) -> tuple[StepValue, ...]:
+        """Every step's value: ``statement``'s rows, and the scene's ids when a step is
+        the scene."""
         sets: dict[int, set[int]] = defaultdict(set)
-        if parts:
-            for step_index, value in raw_rows(self.conn, sa.union_all(*parts)):
+        if statement is not None:
+            for step_index, value in raw_rows(self.conn, statement):
                 sets[step_index].add(value)
         scene: tuple[int, ...] = ()
         if self.c.whole:
-            scene = self.owner.scene_ids(self.conn, self.c)
+            scene = self.owner.scene_ids(self.conn, self.c, self.version)
         out: list[StepValue] = []
         for i, step in enumerate(program.steps):
             if step.op is Op.SCENE:

@@ -17,10 +17,12 @@ rightmost.
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
 
+from graph_store.errors import SceneNotFound
 from graph_store.types import Attribute, Entity, Relation, SceneGraph, SceneMeta
 from queries import Executor, GraphQuery
 
@@ -137,6 +139,43 @@ def test_results_carry_every_step_and_explain(executor: Executor) -> None:
     assert document["answer"] == [2] and document["steps"][2] == [2, 3, 4]
 
 
+def test_sql_compiles_a_program_once_per_scene_version(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A program run again on the unchanged scene reuses its statement; saving the scene
+    again compiles it anew; a fixpoint (``fall_if_removed``) is compiled every run."""
+    from graph_store.repository import open_store
+    from queries import sql_executor
+    from queries.sql_executor import SqlExecutor
+
+    compiled: list[int] = []
+    real = sql_executor._SqlRun._compile
+
+    def counting(self: object, i: int, step: object) -> object:
+        compiled.append(i)
+        return real(self, i, step)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(sql_executor._SqlRun, "_compile", counting)
+    spatial = GraphQuery.from_text(HEAD + "v4 = relate(v2, v1, left_of)")
+    falls = GraphQuery.from_text(
+        'query counterfactual\nv0 = scene()\nv1 = filter_category(v0, "table")\n'
+        "v2 = fall_if_removed(v1)\nreturn v2"
+    )
+    first = scene()
+    with open_store(f"sqlite:///{tmp_path / 'prepared.db'}") as store:
+        store.save_scene(first)
+        sql = SqlExecutor(store.engine, first.scene_id)
+        answers = [sql.run(spatial).answer for _ in range(3)]
+        assert answers == [(2,)] * 3 and len(compiled) == 5
+        for _ in range(2):
+            sql.run(falls)
+        assert len(compiled) == 5 + 2 * 3
+        # towel 2 becomes a cup: the kept statement would be stale
+        renamed = tuple(replace(e, category="cup") if e.id == 2 else e for e in first.entities)
+        store.save_scene(replace(first, entities=renamed), if_exists="replace")
+        assert sql.run(spatial).answer == () and len(compiled) == 5 + 2 * 3 + 5
+
+
 @pytest.mark.parametrize(
     "backend", ["sqlite", pytest.param("postgres", marks=pytest.mark.postgres)]
 )
@@ -170,7 +209,9 @@ def test_sql_reads_the_scene_ids_again_after_the_scene_is_saved_again(
         store.save_scene(SceneGraph(first.meta, shifted[:3]), if_exists="replace")
         assert sql.run(program).answer == (100, 101, 102)
         store.delete_scene(first.scene_id)
-        assert sql.run(program).answer == ()
+        # a deleted scene is no empty scene: the executor says it is gone
+        with pytest.raises(SceneNotFound, match="no scene"):
+            sql.run(program)
 
 
 def test_horizontal_distance_ignores_height(make_any: MakeExecutor) -> None:
