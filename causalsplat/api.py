@@ -44,7 +44,7 @@ if TYPE_CHECKING:
     from causalsplat.export import PlyExport
     from causalsplat.reason import Answer, Reasoner, SceneContext
     from graph_store.rdf import RdfView, SparqlResult
-    from queries import GraphQuery, MultiSceneResult, QueryResult
+    from queries import Executor, GraphQuery, MultiSceneResult, QueryResult
 
 DEFAULT_URL = "sqlite:///causalsplat.db"
 RdfFormat = Literal["turtle", "ntriples", "jsonld"]
@@ -340,6 +340,7 @@ class Scene:
         self.id = scene_id
         self._graph = graph
         self._rdf: dict[str, RdfView] = {}
+        self._executors: dict[str, Executor] = {}
         #: The report of the build that made this handle (``Store.build`` only).
         self.build_report: BuildResult | None = None
 
@@ -357,6 +358,7 @@ class Scene:
         """Forget cached state so the next access reads the store again."""
         self._graph = None
         self._rdf.clear()
+        self._executors.clear()
         return self
 
     @property
@@ -472,11 +474,23 @@ class Scene:
     ) -> QueryResult:
         """Run a structured program (a ``GraphQuery``, its JSON or its dict) on this scene
         with the ``networkx`` (the reference, on networkx graphs), ``memory`` (the same on
-        plain dicts), ``sql`` or ``sparql`` executor."""
-        from queries import run_program
+        plain dicts), ``sql`` or ``sparql`` executor.
 
-        source = self.graph if executor in ("networkx", "memory") else self.store.graph_store
-        return run_program(source, self.id, program, executor=executor)
+        The handle keeps each executor it made (the graphs, the RDF dataset, the SQL
+        executor's scene ids) for the next program, until :meth:`reload`."""
+        from queries import GraphQuery, make_executor
+
+        query = GraphQuery.parse(program)
+        runner = self._executors.get(executor)
+        if runner is None:
+            source = (
+                self.graph
+                if executor in ("networkx", "memory", "sparql")
+                else (self.store.graph_store)
+            )
+            runner = make_executor(source, self.id, executor=executor)
+            self._executors[executor] = runner
+        return runner.run(query)
 
     def evaluate(
         self,
