@@ -388,20 +388,12 @@ class GraphStore:
         """All stored scenes, ordered by id."""
         with self._read() as conn:
             rows = conn.execute(sa.select(m.scenes).order_by(m.scenes.c.id)).all()
-        return [
-            SceneSummary(
-                scene_id=r.id,
-                name=r.name,
-                source=r.source,
-                units=r.units,
-                up_axis=r.up_axis,
-                entity_count=r.entity_count,
-                relation_count=r.relation_count,
-                created_at=_aware(r.created_at),
-                config_hash=r.config_hash,
-            )
-            for r in rows
-        ]
+        return [_summary(r) for r in rows]
+
+    def scene_summary(self, scene_id: str) -> SceneSummary:
+        """One stored scene's summary (one row read); raises :class:`SceneNotFound`."""
+        with self._read() as conn:
+            return _summary(self._scene_row(conn, scene_id))
 
     def delete_scene(self, scene_id: str) -> None:
         """Delete a scene and everything it owns; raises :class:`SceneNotFound`."""
@@ -638,6 +630,20 @@ def _entity_from_row(row: sa.Row[Any], attributes: Sequence[Attribute]) -> Entit
         point_count=row.point_count,
         confidence=row.confidence,
         attributes=tuple(attributes),
+    )
+
+
+def _summary(r: sa.Row[Any]) -> SceneSummary:
+    return SceneSummary(
+        scene_id=r.id,
+        name=r.name,
+        source=r.source,
+        units=r.units,
+        up_axis=r.up_axis,
+        entity_count=r.entity_count,
+        relation_count=r.relation_count,
+        created_at=_aware(r.created_at),
+        config_hash=r.config_hash,
     )
 
 

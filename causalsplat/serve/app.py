@@ -195,9 +195,10 @@ class App:
         Raises ``SceneNotFound`` (404) for an unknown id.
         """
         with self._handles_lock:
-            summary = next((s for s in self.store.scenes() if s.scene_id == scene_id), None)
-            if summary is None:
-                raise SceneNotFound(f"no scene {scene_id!r} in the store")
+            try:
+                summary = self.store.graph_store.scene_summary(scene_id)
+            except SceneNotFound:
+                raise SceneNotFound(f"no scene {scene_id!r} in the store") from None
             cached = self._scenes.get(scene_id)
             if cached is not None and cached[0] == summary.created_at:
                 return cached[1]
