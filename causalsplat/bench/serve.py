@@ -3,7 +3,7 @@
 The store holds the packaged demo kitchen. 50 client threads (this process) each post a
 4-step program (``POST /api/scenes/ID/query``: the cups resting on a table, and how many)
 as fast as they are answered, for 60 s (``quick``: 5 s), against the server in a process of
-its own:
+its own (a fresh interpreter):
 
 * ``uvicorn``: :class:`~causalsplat.serve.Server` (Uvicorn and Starlette), a new connection
   per request, then one kept-alive connection per client;
@@ -20,9 +20,10 @@ from __future__ import annotations
 
 import http.client
 import json
-import multiprocessing
 import resource
 import statistics
+import subprocess
+import sys
 import threading
 import time
 from pathlib import Path
@@ -79,8 +80,9 @@ def _baseline(app: Any, port: int) -> Any:
     return Threading(("127.0.0.1", port), Handler)
 
 
-def _serve(kind: str, db: str, ready: Any, stop: Any, peak: Any) -> None:  # pragma: no cover
-    """The server process: answer until ``stop`` is set, then report its peak RSS."""
+def serve_until_told(kind: str, db: str) -> None:  # pragma: no cover - the child's side
+    """The server process: print the port, answer until a line arrives on stdin, then
+    print the process's peak RSS (MiB)."""
     from causalsplat import open_store
     from causalsplat.serve import App, Server
 
@@ -88,17 +90,17 @@ def _serve(kind: str, db: str, ready: Any, stop: Any, peak: Any) -> None:  # pra
         app = App(store)
         if kind == "uvicorn":
             server = Server(app, "127.0.0.1", 0).start()
-            ready.put(server.port)
-            stop.wait()
+            print(server.port, flush=True)
+            sys.stdin.readline()
             server.shutdown()
         else:
             httpd = _baseline(app, 0)
             thread = threading.Thread(target=httpd.serve_forever, daemon=True)
             thread.start()
-            ready.put(httpd.server_address[1])
-            stop.wait()
+            print(httpd.server_address[1], flush=True)
+            sys.stdin.readline()
             httpd.shutdown()
-    peak.put(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024)
+    print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, flush=True)
 
 
 def _load(port: int, path: str, seconds: float, keep_alive: bool) -> dict[str, Any]:
@@ -161,17 +163,24 @@ def _load(port: int, path: str, seconds: float, keep_alive: bool) -> dict[str, A
 
 
 def _run(kind: str, db: str, scene: str, seconds: float, keep_alive: bool) -> dict[str, Any]:
-    context = multiprocessing.get_context("fork")
-    ready, peak, stop = context.Queue(), context.Queue(), context.Event()
-    process = context.Process(target=_serve, args=(kind, db, ready, stop, peak), daemon=True)
-    process.start()
-    port = ready.get(timeout=60)
-    try:
-        row = _load(port, f"/api/scenes/{scene}/query", seconds, keep_alive)
-    finally:
-        stop.set()
-    row["peak_rss_mib"] = peak.get(timeout=60)
-    process.join(timeout=60)
+    # a fresh interpreter, as `causalsplat serve` is: a forked one would carry (and count
+    # in its peak RSS) everything this benchmark process holds
+    code = "import sys; from causalsplat.bench.serve import serve_until_told as s; s(*sys.argv[1:])"
+    with subprocess.Popen(
+        [sys.executable, "-c", code, kind, db],
+        stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
+    ) as process:  # fmt: skip
+        assert process.stdin is not None and process.stdout is not None
+        try:
+            port = int(process.stdout.readline())
+            row = _load(port, f"/api/scenes/{scene}/query", seconds, keep_alive)
+            process.stdin.write("stop\n")
+            process.stdin.flush()
+            row["peak_rss_mib"] = float(process.stdout.readline())
+        finally:
+            if process.poll() is None:
+                process.stdin.close()
+                process.wait(timeout=60)
     return row
 
 
