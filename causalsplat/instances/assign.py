@@ -50,6 +50,7 @@ import scipy.sparse as sp
 from causalsplat.errors import MissingDependencyError
 from causalsplat.field.types import FeatureField, MaskEvidence
 from causalsplat.field.weights import normalize_rows
+from causalsplat.instances._ids import by_first_appearance
 from causalsplat.instances.config import InstanceConfig
 from causalsplat.instances.consensus import joined_clusters, overlaps
 from causalsplat.instances.pieces import split_pieces
@@ -150,12 +151,8 @@ def assign_instances(
     """
     raw = cluster_masks(evidence.features, config)
     n_clusters = int(raw.max()) + 1 if raw.size else 0
-    # Renumber clusters by first appearance so ids do not depend on HDBSCAN's numbering.
-    _, first = np.unique(raw, return_index=True)
-    order = [int(raw[i]) for i in sorted(first) if raw[i] >= 0]
-    index_of = np.full(n_clusters + 1, -1, dtype=np.int64)
-    index_of[order] = np.arange(len(order))
-    cluster = index_of[raw]  # raw -1 reads the last slot, -1
+    (cluster,) = by_first_appearance(raw)
+    order = list(range(int(cluster.max(initial=-1)) + 1))
     feats = evidence.features.astype(np.float64)
     centers = _centers(feats, cluster, len(order), field.dim)
     votes: sp.csr_matrix | None = None
@@ -202,7 +199,7 @@ def assign_instances(
     if config.split_gap > 0 and kept.size:
         labels, mask_entity = _split(labels, mask_entity, evidence, means, scales, config,
                                      mask_labels)  # fmt: skip
-        labels, mask_entity = _by_first_mask(labels, mask_entity)
+        mask_entity, labels = by_first_appearance(mask_entity, labels)
         n = int(mask_entity.max()) + 1 if (mask_entity >= 0).any() else 0
         centers = _centers(feats, mask_entity, n, field.dim)
     return InstanceAssignment(
@@ -237,16 +234,6 @@ def _split(
     return split_pieces(labels, mask_entity, evidence.gaussian_weight, means,
                         gap=config.split_gap * size, min_share=PIECE_SHARE,
                         min_gaussians=config.min_gaussians, keep=keep)  # fmt: skip
-
-
-def _by_first_mask(labels: np.ndarray, mask_entity: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Entity ids renumbered 0.. in the order of each entity's first mask."""
-    _, first = np.unique(mask_entity, return_index=True)
-    order = [int(mask_entity[i]) for i in sorted(first) if mask_entity[i] >= 0]
-    size = max(int(labels.max(initial=-1)), int(mask_entity.max(initial=-1))) + 2
-    index_of = np.full(size, -1, dtype=np.int64)
-    index_of[order] = np.arange(len(order))
-    return index_of[labels], index_of[mask_entity]
 
 
 def _centers(feats: np.ndarray, cluster: np.ndarray, k: int, dim: int) -> np.ndarray:

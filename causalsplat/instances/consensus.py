@@ -29,6 +29,8 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
+from causalsplat.instances._ids import by_first_appearance
+
 
 def overlaps(votes: sp.csr_matrix) -> np.ndarray:
     """(K, K) overlap of every pair of clusters (module docstring); the diagonal is 1
@@ -77,11 +79,6 @@ def joined_clusters(cluster: np.ndarray, together: np.ndarray) -> np.ndarray:
     """Each mask's cluster after joining the clusters ``together`` (K, K) marks
     (transitively), renumbered 0.. in the order of each joined cluster's first mask; -1
     stays -1."""
-    k = together.shape[0]
     _, component = connected_components(sp.csr_matrix(together), directed=False)
     merged = np.where(cluster >= 0, component[np.maximum(cluster, 0)], -1)
-    _, first = np.unique(merged, return_index=True)
-    order = [int(merged[i]) for i in sorted(first) if merged[i] >= 0]
-    index_of = np.full(k + 1, -1, dtype=np.int64)
-    index_of[order] = np.arange(len(order))
-    return index_of[merged]
+    return by_first_appearance(merged)[0]
