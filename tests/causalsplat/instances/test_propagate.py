@@ -193,3 +193,24 @@ def test_a_barely_seen_side_follows_its_features_not_the_surface_it_touches() ->
     plain = InstanceConfig(min_gaussians=1, propagate_feature_power=0.0)
     out = assign_instances(field, evidence, plain, means=means, scales=scales)
     assert (out.labels[8:12] == cabinet).sum() >= 2
+
+
+def test_feature_agreement_block_by_block_equals_all_at_once(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The agreement is computed a block of edges at a time (memory on dense captures):
+    the weighted graph is the same, bit for bit, whatever the block."""
+    from causalsplat.instances import propagate
+
+    rng = np.random.default_rng(4)
+    n = 500
+    src, dst = np.repeat(np.arange(n), 6), rng.integers(0, n, 6 * n)
+    graph = sp.csr_matrix((rng.random(6 * n), (src, dst)), shape=(n, n))
+    graph = graph + graph.T
+    features = rng.standard_normal((n, 8)).astype(np.float32)
+    features /= np.linalg.norm(features, axis=1, keepdims=True)
+    known = rng.random(n) > 0.3
+    whole = propagate.feature_weighted(graph, features, 2.0, known)
+    monkeypatch.setattr(propagate, "EDGE_BLOCK", 7)
+    blocks = propagate.feature_weighted(graph, features, 2.0, known)
+    assert (whole != blocks).nnz == 0 and np.array_equal(whole.data, blocks.data)
