@@ -21,6 +21,16 @@ English verbs, with the particles they need), not phrasings from any evaluation 
 True
 >>> split_condition(tuple("if the table is removed what falls".split()))
 (('the', 'table'), ('what', 'falls'))
+>>> split_condition(tuple("what loses its support when the table goes ?".split()))
+(('the', 'table'), ('what', 'loses', 'its', 'support', '?'))
+>>> split_condition(tuple("what is left hanging without the table ?".split()))
+(('the', 'table'), ('what', 'is', 'left', 'hanging', '?'))
+>>> split_condition(tuple("the chair without arms".split())) is None
+True
+
+"Without X" is a condition only in a question of what falls ("what drops without the
+shelf?"): elsewhere it describes ("the lamp without a shade", "which chair is without a
+cushion?").
 """
 
 from __future__ import annotations
@@ -37,7 +47,7 @@ _IRREGULAR = {
     "torn": "tear", "gave": "give", "given": "give", "fell": "fall", "fallen": "fall",
     "got": "get", "gotten": "get", "threw": "throw", "thrown": "throw", "drew": "draw",
     "drawn": "draw", "stole": "steal", "stolen": "steal", "sold": "sell", "shook": "shake",
-    "caved": "cave", "went": "go", "blew": "blow", "blown": "blow",
+    "caved": "cave", "went": "go", "goes": "go", "blew": "blow", "blown": "blow",
     "hauled": "haul", "ripped": "rip", "dragged": "drag", "wheeled": "wheel",
 }  # fmt: skip
 
@@ -80,7 +90,7 @@ def lemma(word: str) -> str:
     for suffix, repl in (("ies", "y"), ("ied", "y")):
         if word.endswith(suffix) and len(word) > 4:
             return word[: -len(suffix)] + repl
-    known = _REMOVE_ALONE | _MOVE | {w for w, _ in _COLLAPSE_2}
+    known = _REMOVE_ALONE | _MOVE | _FALLING | {w for w, _ in _COLLAPSE_2}
     if word in known:
         return word
     for suffix in ("ing", "ed", "es", "s", "d"):
@@ -104,6 +114,8 @@ def removes(tokens: tuple[str, ...]) -> bool:
     for i, lem in enumerate(lemmas):
         if lem in _REMOVE_ALONE:
             return True
+        if lem == "go" and i == len(tokens) - 1 and i > 0:
+            return True  # "when the table goes": said of a thing, going is leaving
         nxt = lemmas[i + 1] if i + 1 < len(lemmas) else ""
         if (lem, nxt) in _COLLAPSE_2 or (tokens[i], nxt) in _COLLAPSE_2:
             return True
@@ -127,7 +139,7 @@ def _verb(word: str) -> bool:
         lem in _REMOVE_ALONE
         or lem in _MOVE
         or word in _AWAY
-        or lem in ("give", "cave", "fall", "tip")
+        or lem in ("give", "cave", "fall", "tip", "go")
     )
 
 
@@ -150,6 +162,24 @@ def _question_start(clause: tuple[str, ...]) -> int:
         if clause[k] in _QUESTION_WORDS and removes(clause[:k]):
             return k
     return len(clause)
+
+
+#: Verbs of a question that asks what falls (their lemmas), for "without X".
+_FALLING = frozenset({"fall", "drop", "tumble", "topple", "crash", "slide", "slip", "hang",
+                      "lose", "collapse", "tip"})  # fmt: skip
+
+
+def _without(tokens: tuple[str, ...]) -> tuple[tuple[str, ...], tuple[str, ...]] | None:
+    """``(what is removed, the question)`` for "without X" in a question of what falls."""
+    if "without" not in tokens or not any(t in _QUESTION_WORDS for t in tokens):
+        return None
+    i = tokens.index("without")
+    end = next((j for j in range(i + 1, len(tokens)) if tokens[j] in (",", ".", "?")),
+               len(tokens))  # fmt: skip
+    question = (*tokens[:i], *tokens[end:])
+    if not tokens[i + 1 : end] or not any(lemma(t) in _FALLING for t in question):
+        return None
+    return tokens[i + 1 : end], tuple(t for k, t in enumerate(question) if t != "," or k > 0)
 
 
 def split_condition(
@@ -181,4 +211,4 @@ def split_condition(
             t for t in clause if t not in AGENTS and t not in _AUXILIARIES and not _verb(t)
         )
         return kept, question
-    return None
+    return _without(tokens)

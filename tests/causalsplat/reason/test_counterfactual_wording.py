@@ -38,6 +38,9 @@ WORDINGS = [
     "what would end up on the floor if the table caved in?",
     "if the table is removed what falls",  # no comma: the question word ends the condition
     "if someone hauls the table away which things fall?",
+    "what loses its support when the table goes?",  # going, said of a thing, is leaving
+    "what drops without the table?",  # "without", in a question of what falls
+    "what is left hanging without the table?",
 ]
 
 
@@ -134,3 +137,12 @@ def test_a_kind_the_room_lacks_is_removed_from_nowhere(room: SceneContext, text:
     answer = OfflineReasoner(embeddings=True).answer(text, room)
     assert answer.entity_ids == (), answer.explanation
     assert "nothing it says is removed is in the scene" in answer.explanation
+
+
+@pytest.mark.parametrize(
+    "text", ["the cup without a handle", "which box is without a lid?", "where do I go?"]
+)
+def test_without_and_go_elsewhere_remove_nothing(text: str) -> None:
+    # "without" describes unless the question asks what falls; "go" removes only a thing
+    # that goes at the end of its clause
+    assert split_condition(tuple(text.replace("?", " ?").split())) is None
