@@ -98,6 +98,9 @@ VERB_SHARE = 0.6
 #: no such rule (the acceptable label is often one the knowledge table says does another
 #: thing: soap for "wash my hands", where the sink leads), 0.8 costs 1.5.
 VERB_MARGIN = 0.9
+#: How a command is scored: as the want it expresses ("warm up the soup" as "i want to
+#: warm up the soup"), the form needs are said in (and the need adapter learned on).
+COMMAND_AS_WANT = "i want to"
 #: Lowest score a category must reach to meet a need; below it, nothing here fits.
 FITS = 0.1
 #: A need is met only by a category scoring at least this share of what would meet it best
@@ -191,6 +194,11 @@ class Grounding:
         """One line for the explanation."""
         if self.how == "named":
             return f"named: {', '.join(self.chosen)}"
+        if self.how == "acted on":
+            return (
+                f"nothing here serves {self.query!r} better than what it acts on: "
+                f"{', '.join(self.chosen)}"
+            )
         if self.affordances:
             stored = ", ".join(f"{p!r} {v:.2f}" for p, v in self.affordances)
             return f"{self.how} {self.query!r} -> stored affordance {stored} ({self.method})"
@@ -351,6 +359,10 @@ class Grounder:
             if con.anchors and all(is_named(a) for a in con.anchors)
         ]
         query = _with_states(_without_relations(ins, constraints), ins.main_tokens)
+        if ins.command:
+            # a command says what the speaker wants done: it is scored as that want
+            # ("warm up the soup" as "I want to warm up the soup"), as needs are said
+            query = f"{COMMAND_AS_WANT} {query}"
         acted = self.acted_on(ins)
         # a category is scored without the words that name it as what the need acts on:
         # "somewhere to put my cup down" does not ask for a cup
@@ -365,6 +377,10 @@ class Grounder:
         ranked = self._rank("intent", query, named, need=True, own=own, patient=patient,
                             verbs=verbs)  # fmt: skip
         ranked = self._verb_gate(ranked, verbs)
+        if ins.command and not ranked.chosen and named:
+            # nothing here does it, and the command names what it acts on: that is the
+            # thing meant ("open the fridge", "make the bed")
+            return replace(ranked, how="acted on", chosen=tuple(sorted(named)))
         stored = self.ctx.attribute_values(self.ctx.config.affordance_key)
         if not stored:
             return self._widen(ins, ranked)

@@ -18,6 +18,7 @@ from causalsplat.reason._conditions import split_condition
 from causalsplat.reason._items import Item, Modifier, read_items
 from causalsplat.reason._mentions import CategoryIndex, Mention
 from causalsplat.reason._text import tokenize
+from causalsplat.reason.lexicon import Lexicon
 from queries import Metric, Op
 
 
@@ -94,6 +95,8 @@ class Instruction:
         purpose_start: index in ``main_tokens`` where the purpose clause of a need begins
             ("where can I | heat up soup"), or ``None``.
         main_tokens: the tokens without the viewpoint clause (set for needs).
+        command: the need is said as a command ("store my dishes", "sit on the couch"):
+            its purpose clause is the whole sentence.
     """
 
     text: str
@@ -108,6 +111,7 @@ class Instruction:
     notes: tuple[str, ...] = field(default=())
     purpose_start: int | None = None
     main_tokens: tuple[str, ...] = ()
+    command: bool = False
 
     @property
     def is_intrinsic(self) -> bool:
@@ -158,8 +162,10 @@ def parse_instruction(text: str, index: CategoryIndex) -> Instruction:
                            closure=bool(g.CLOSURE_TRIGGERS.search(joined)))  # fmt: skip
     action = _action_words(main_tokens, items)
     purpose, fetch = _purpose(main_tokens)
+    command = False
     if purpose is None:
-        purpose, fetch = _imperative(main_tokens, index)
+        purpose = _imperative(main_tokens, index)
+        command = purpose is not None
     wants = (
         g.ACTION_TRIGGERS.search(joined)
         or purpose is not None
@@ -169,7 +175,7 @@ def parse_instruction(text: str, index: CategoryIndex) -> Instruction:
         target = _place_of_need(_anchor_of_need(target, items))
         return Instruction(text, tokens, "action", target, action=action, viewpoint=viewpoint,
                            standing_at=standing, purpose_start=purpose,
-                           main_tokens=main_tokens)  # fmt: skip
+                           main_tokens=main_tokens, command=command)  # fmt: skip
     if target is None:
         target = NounPhrase(None)
     elif not wh:
@@ -179,7 +185,8 @@ def parse_instruction(text: str, index: CategoryIndex) -> Instruction:
         # "which thing needs watering?", "where can the baby play?": nothing but the rest
         # of the sentence says what is asked for; read as a need, never as everything
         return Instruction(text, tokens, "action", target, action=action,
-                           purpose_start=purpose, main_tokens=main_tokens)  # fmt: skip
+                           purpose_start=purpose, main_tokens=main_tokens,
+                           command=command)  # fmt: skip
     if joined.startswith("how many"):
         kind = "count"
     elif main_tokens[:2] in (("is", "there"), ("are", "there")):
@@ -268,14 +275,21 @@ def _purpose(tokens: tuple[str, ...]) -> tuple[int | None, bool]:
 #: plates", "warm *up*"): what it acts on, or its particle.
 _AFTER_IMPERATIVE = frozenset({"my", "your", "our", "his", "her", "their", "some", "a", "an",
                                "the", "this", "these", "those", "me", "us", "it", "them",
-                               "up", "down", "off", "out"})  # fmt: skip
+                               "myself", "yourself", "ourselves", "themselves",
+                               "up", "down", "off", "out", "away"})  # fmt: skip
+#: Prepositions after which a sentence's first word is a command's verb when it names no
+#: object ("sit *on* the couch", "turn *on* the tv", "lie *in* bed"); a word that can name
+#: one stays a noun ("light on the wall", "book on the shelf").
+_AFTER_COMMAND_VERB = frozenset({"on", "in", "into", "onto", "at", "with", "under", "over",
+                                 "by", "through", "against", "beside"})  # fmt: skip
 
 
 def _bare_object(tokens: tuple[str, ...], k: int, index: CategoryIndex) -> bool:
     """Whether ``tokens[k]`` is the bare noun a command acts on ("cook | pasta", "boil |
     water for tea"): a noun that names no scene category, alone or with the word before
     it ("trash can", "shower curtain" and "file cabinet" are things, not commands), and
-    after which the sentence ends or says only what for."""
+    after which the sentence ends, says what for, or goes on with a preposition ("eat food
+    from a bowl")."""
     word = tokens[k]
     lexicon = index.lexicon
     if not word.isalpha() or word in g.FUNCTION_WORDS or not lexicon.has_noun(lexicon.lemma(word)):
@@ -283,39 +297,54 @@ def _bare_object(tokens: tuple[str, ...], k: int, index: CategoryIndex) -> bool:
     if index.lookup((word,)) is not None or index.lookup(tokens[k - 1 : k + 1]) is not None:
         return False
     rest = [t for t in tokens[k + 1 :] if t.isalnum()]
-    return not rest or rest[0] == "for"
+    return not rest or rest[0] == "for" or rest[0] in _AFTER_COMMAND_VERB or rest[0] == "from"
 
 
-def _imperative(tokens: tuple[str, ...], index: CategoryIndex) -> tuple[int | None, bool]:
-    """A need said as a command ("store my dishes", "warm up the soup", "please dry my
-    hair"): the sentence opens with a verb in its base form that names no scene category,
-    is no light, picking or viewpoint verb ("find", "choose", "facing"), and is followed
-    by what it acts on or its particle. Its purpose clause is the whole sentence, and
-    what it acts on is the thing meant when the scene has it by name ("open the fridge",
-    "make the bed"): only a command on something the scene does not hold asks what would
-    serve ("warm up the soup": the stove). A verb of getting or finding ("grab a towel",
-    "locate the lamp") is left to the description it opens; ``(None, False)`` for it and
-    anything else ("picture above the bed"). What it acts on may be a bare noun when the
-    command says nothing more (:func:`_bare_object`: "cook pasta", "boil water")."""
-    i = 1 if tokens[:1] == ("please",) else 0
+def _manner(word: str, lexicon: Lexicon) -> bool:
+    """An adverb of manner before a command's verb ("quickly heat up my food"): a word in
+    -ly that WordNet knows as no noun and no verb."""
+    return (len(word) > 4 and word.endswith("ly") and not lexicon.verb_senses(word)
+            and not lexicon.has_noun(word))  # fmt: skip
+
+
+def _imperative(tokens: tuple[str, ...], index: CategoryIndex) -> int | None:
+    """Where a need said as a command begins ("store my dishes", "warm up the soup",
+    "please dry my hair", "sit on the couch"), or ``None``: the sentence opens with a verb
+    in its base form that names no scene category, is no light, picking or viewpoint verb
+    ("find", "choose", "facing"), and is followed by what it acts on, its particle, or a
+    preposition when the verb names no object at all ("sit on", but "light on the wall"
+    is a thing). Its purpose clause is the whole sentence: a command says what the
+    speaker wants done, and is grounded as the same need said as a want ("I want to warm
+    up the soup": the stove); when nothing here does it, what it acts on is the thing
+    meant ("open the fridge", "make the bed": :meth:`Grounder.intent
+    <causalsplat.reason.ground.Grounder.intent>`). A verb of getting or finding ("grab a
+    towel", "locate the lamp") is left to the description it opens, and so is anything
+    else ("picture above the bed"). What it acts on may be a bare noun when the command
+    says nothing more (:func:`_bare_object`: "cook pasta", "boil water")."""
+    lexicon = index.lexicon
+    i = 1 if tokens[:1] == ("please",) or _manner(tokens[0], lexicon) else 0
     if len(tokens) < i + 2:
-        return None, False
-    if tokens[i + 1] not in _AFTER_IMPERATIVE and not _bare_object(tokens, i + 1, index):
-        return None, False
+        return None
     verb = tokens[i]
+    if (
+        tokens[i + 1] not in _AFTER_IMPERATIVE
+        and not _bare_object(tokens, i + 1, index)
+        and (tokens[i + 1] not in _AFTER_COMMAND_VERB or lexicon.has_noun(lexicon.lemma(verb)))
+    ):
+        return None
     if (
         verb in g.FUNCTION_WORDS
         or verb in g.VIEW_TRIGGERS
         or verb in g.WH_WORDS
         or verb in _PICKING
         or verb in g.FETCH_VERBS
-        or verb in index.lexicon.colors
+        or verb in lexicon.colors
         or index.lookup((verb,)) is not None
-        or not index.lexicon.verb_senses(verb)
-        or index.lexicon.lemma(verb, "v") != verb
+        or not lexicon.verb_senses(verb)
+        or lexicon.lemma(verb, "v") != verb
     ):
-        return None, False
-    return i, True
+        return None
+    return i
 
 
 def _names_what_is_wanted(target: NounPhrase | None, purpose: int | None, fetch: bool) -> bool:

@@ -160,36 +160,65 @@ def test_a_verb_after_to_is_the_need_not_a_thing_it_acts_on(reasoner: OfflineRea
 
 
 @pytest.mark.parametrize(
-    ("text", "answer", "need"),
+    ("text", "answer", "reading"),
     [
-        ("warm up the soup", {"stove"}, True),
-        ("please dry my hands", {"towel"}, True),
-        ("wash the dishes", {"sink"}, True),
-        # a command on something the room has by name is about that thing
-        ("make the bed", {"bed"}, False),
-        ("wash the towel", {"towel"}, False),
+        ("warm up the soup", {"stove"}, "need"),
+        ("please dry my hands", {"towel"}, "need"),
+        ("wash the dishes", {"sink"}, "need"),
+        # a command on something the room has by name, that nothing here does for it, is
+        # about that thing
+        ("make the bed", {"bed"}, "acted on"),
+        ("wash the towel", {"towel"}, "acted on"),
         # a verb of getting or finding asks for its object, as a description does
-        ("grab a towel", {"towel"}, False),
-        ("locate the lamp", {"lamp"}, False),
+        ("grab a towel", {"towel"}, "description"),
+        ("locate the lamp", {"lamp"}, "description"),
         # a noun that is also a verb ("to picture") stays a description
-        ("picture above the bed", {"picture"}, False),
-        ("Lamp next to the bed", {"lamp"}, False),
+        ("picture above the bed", {"picture"}, "description"),
+        ("Lamp next to the bed", {"lamp"}, "description"),
         # a bare noun the room does not hold, and nothing more said
-        ("boil water for tea", {"stove"}, True),
-        ("dry hands", {"towel"}, True),
+        ("boil water for tea", {"stove"}, "need"),
+        ("dry hands", {"towel"}, "need"),
         # two words that name a thing here are the thing, even when the first is a verb
-        ("table lamp", {"lamp"}, False),
-        ("plate rack", {"plate"}, False),
+        ("table lamp", {"lamp"}, "description"),
+        ("plate rack", {"plate"}, "description"),
     ],
 )
 def test_a_need_said_as_a_command(
-    reasoner: OfflineReasoner, text: str, answer: set[str], need: bool
+    reasoner: OfflineReasoner, text: str, answer: set[str], reading: str
 ) -> None:
     kitchen = _room("plate", "stove", "pot", "table", "cabinet", "towel", "sink", "picture",
                     "bed", "lamp")  # fmt: skip
     got = reasoner.answer(text, kitchen)
     assert set(got.categories) == answer, got.explanation
-    assert got.explanation.startswith("read as: an action") is need, got.explanation
+    assert got.explanation.startswith("read as: an action") is (reading != "description")
+    assert ("better than what it acts on" in got.explanation) is (reading == "acted on")
+
+
+@pytest.mark.parametrize(
+    ("text", "answer"),
+    [
+        # a preposition after a verb that names no object: a command ("sit on", "lie on",
+        # "turn on"), not "anything on the couch"
+        ("sit on the couch", {"couch"}),
+        ("lie on the bed", {"bed"}),
+        ("turn on the lamp", {"lamp"}),
+        # a reflexive object, a manner adverb first, a bare noun then a preposition
+        ("dry myself", {"towel"}),
+        ("quickly warm up the soup", {"stove"}),
+        ("eat soup from something", {"bowl"}),
+        # the command is grounded as the want it says
+        ("throw away this wrapper", {"trash can"}),
+    ],
+)
+def test_commands_are_read_as_the_wants_they_say(
+    reasoner: OfflineReasoner, text: str, answer: set[str]
+) -> None:
+    room = _room("couch", "bed", "lamp", "towel", "stove", "bowl", "trash can", "table")
+    got = reasoner.answer(text, room)
+    assert set(got.categories) == answer, got.explanation
+    assert got.explanation.startswith("read as: an action"), got.explanation
+    wanted = reasoner.answer(f"I want to {text}", room)
+    assert set(wanted.categories) == answer, wanted.explanation
 
 
 @pytest.mark.parametrize(
