@@ -15,6 +15,10 @@ folder's ``SOURCE.md``; nothing is copied into the repository). The protocol of
 * an answer is **right** when it is non-empty and every object in it has an acceptable
   label. Top-3: one of the first three ranked candidates (categories) is acceptable.
 
+The same instructions said as commands (:func:`as_command`: "I want to heat up my lunch"
+-> "heat up my lunch") measure how much the wording of a need matters: the instructions
+are DDN's, the command form a mechanical rewrite of them.
+
 The naive baseline, run on the same placements: every object of the scene label whose
 name is nearest to the instruction by MiniLM cosine.
 
@@ -28,10 +32,11 @@ from __future__ import annotations
 
 import json
 import random
+import re
 import sys
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
@@ -111,6 +116,33 @@ def placements(split: str) -> tuple[list[Placement], int]:
             scan = random.Random(f"ddn:{text}").choice(pool)
             out.append(Placement(text, scan, acceptable))
     return out, len(demands)
+
+
+#: The want that opens an instruction, taken off to say it as a command.
+_WANT_FRAME = re.compile(
+    r"^\s*(?:i(?:\s+(?:want|need|would\s+like|wish)|'d\s+like)\s+to|let\s+me)\s+(\S.*?)[\s.!]*$",
+    re.IGNORECASE,
+)
+
+
+def as_command(text: str) -> str | None:
+    """The instruction said as a command ("I want to heat up my lunch." -> "heat up my
+    lunch"), or ``None`` when it does not open with a want ("I am thirsty").
+
+    >>> as_command("I need to dry my hair.")
+    'dry my hair'
+    >>> as_command("I'm hungry") is None
+    True
+    """
+    m = _WANT_FRAME.match(text)
+    return None if m is None else m.group(1)
+
+
+def command_placements(split: str) -> list[tuple[Placement, Placement]]:
+    """(want, command) pairs: each placeable instruction that opens with a want, and the
+    same placement said as a command (:func:`as_command`)."""
+    rows, _ = placements(split)
+    return [(row, replace(row, text=cmd)) for row in rows if (cmd := as_command(row.text))]
 
 
 def absent_placements(split: str) -> list[Placement]:

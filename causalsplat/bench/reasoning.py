@@ -242,7 +242,44 @@ def _ddn(graphs: ref.ScanGraphs, quick: bool) -> tuple[list[str], dict[str, Any]
         f"{_pct(rate)} of them, and in {_pct(placed_empty)} of the placed ones (where it "
         "should answer). The naive baseline always answers something.",
     ]
+    lines += _ddn_commands(graphs, quick, configs[-1], embeddings_available(), data)
     return lines, data
+
+
+def _ddn_commands(
+    graphs: ref.ScanGraphs,
+    quick: bool,
+    config: tuple[str, Any],
+    naive: bool,
+    data: dict[str, Any],
+) -> list[str]:
+    """The validation instructions that open with a want, said as commands."""
+    pairs = ddn.command_placements("val")
+    if quick:
+        pairs = pairs[:30]
+    name, reasoner = config
+    wants = ddn.summary(ddn.evaluate([w for w, _ in pairs], reasoner, graphs))
+    commands = ddn.summary(ddn.evaluate([c for _, c in pairs], reasoner, graphs))
+    data["ddn/commands"] = {"n": len(pairs), "want": wants, "command": commands}
+    rows = [(f"{name}, said as a want (as written)", wants),
+            (f"{name}, said as a command", commands)]  # fmt: skip
+    if naive:
+        baseline = ddn.summary(ddn.baseline([c for _, c in pairs], graphs))
+        data["ddn/commands"]["naive"] = baseline
+        rows.append(("naive baseline, said as a command", baseline))
+    lines = [
+        "",
+        f'The {len(pairs)} validation instructions that open with a want ("I want to heat up '
+        'my lunch"), asked as written and said as commands ("heat up my lunch"; '
+        "`_reasoning_ddn.as_command`, a mechanical rewrite), in the same placements:",
+        "",
+        _row("reasoner", "n", "right", "top-3", "empty"),
+        "|---|---:|---:|---:|---:|",
+    ]
+    for label, summ in rows:
+        lines.append(_row(label, summ["n"], _pct(summ["accuracy"]), _pct(summ["top3"]),
+                          _pct(summ["empty"])))  # fmt: skip
+    return lines
 
 
 #: Instructions of every reasoning level, asked of scene0000_00 (written for this report;

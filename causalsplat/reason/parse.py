@@ -164,7 +164,7 @@ def parse_instruction(text: str, index: CategoryIndex) -> Instruction:
     purpose, fetch = _purpose(main_tokens)
     command = False
     if purpose is None:
-        purpose = _imperative(main_tokens, index)
+        purpose, fetch = _imperative(main_tokens, index)
         command = purpose is not None
     wants = (
         g.ACTION_TRIGGERS.search(joined)
@@ -284,6 +284,16 @@ _AFTER_COMMAND_VERB = frozenset({"on", "in", "into", "onto", "at", "with", "unde
                                  "by", "through", "against", "beside"})  # fmt: skip
 
 
+#: Verbs among the grammar's function words that still open a command ("put my cup
+#: down", "set an alarm", "do my laundry", "have a drink", "get water").
+_COMMAND_FUNCTION_VERBS = frozenset({"put", "set", "do", "have", "get"})
+#: Verbs of getting: a command with one asks for its object when the scene has it.
+_GETTING = frozenset({"get", "grab", "fetch", "bring", "take", "have", "buy", "borrow"})
+#: Verbs that take an adjective or participle after them ("keep food fresh", "stay
+#: connected", "feel safe", "make sure"): any word may follow.
+_COPULAR = frozenset({"keep", "stay", "remain", "feel", "make", "become"})
+
+
 def _bare_object(tokens: tuple[str, ...], k: int, index: CategoryIndex) -> bool:
     """Whether ``tokens[k]`` is the bare noun a command acts on ("cook | pasta", "boil |
     water for tea"): a noun that names no scene category, alone or with the word before
@@ -307,44 +317,52 @@ def _manner(word: str, lexicon: Lexicon) -> bool:
             and not lexicon.has_noun(word))  # fmt: skip
 
 
-def _imperative(tokens: tuple[str, ...], index: CategoryIndex) -> int | None:
+def _imperative(tokens: tuple[str, ...], index: CategoryIndex) -> tuple[int | None, bool]:
     """Where a need said as a command begins ("store my dishes", "warm up the soup",
-    "please dry my hair", "sit on the couch"), or ``None``: the sentence opens with a verb
-    in its base form that names no scene category, is no light, picking or viewpoint verb
-    ("find", "choose", "facing"), and is followed by what it acts on, its particle, or a
-    preposition when the verb names no object at all ("sit on", but "light on the wall"
-    is a thing). Its purpose clause is the whole sentence: a command says what the
-    speaker wants done, and is grounded as the same need said as a want ("I want to warm
-    up the soup": the stove); when nothing here does it, what it acts on is the thing
-    meant ("open the fridge", "make the bed": :meth:`Grounder.intent
-    <causalsplat.reason.ground.Grounder.intent>`). A verb of getting or finding ("grab a
-    towel", "locate the lamp") is left to the description it opens, and so is anything
-    else ("picture above the bed"). What it acts on may be a bare noun when the command
-    says nothing more (:func:`_bare_object`: "cook pasta", "boil water")."""
+    "please dry my hair", "sit on the couch"), and whether its verb is one of getting
+    ("get water", "have a drink"); ``(None, False)`` for anything else ("picture above the
+    bed", "choose the chair on the left"). The sentence opens with a verb in its base form
+    (after "please", an adverb of manner or "be able to") that names no scene category and
+    is no picking, seeing or viewpoint verb ("choose", "locate", "facing"), followed by
+    what it acts on, its particle, a preposition when the verb names no object at all
+    ("sit on", but "light on the wall" is a thing), or anything when the verb takes an
+    adjective ("keep food fresh", "stay connected"). Its purpose clause is the whole
+    sentence: a command says what the speaker wants done, and is grounded as the same need
+    said as a want ("I want to warm up the soup": the stove); when nothing here does it,
+    what it acts on is the thing meant ("open the fridge", "make the bed":
+    :meth:`Grounder.intent <causalsplat.reason.ground.Grounder.intent>`). A verb of getting
+    asks for its object when the scene has it by name ("grab a towel": the towel), as a
+    description does, and for what gives it otherwise ("get water": the faucet). What it
+    acts on may be a bare noun when the command says nothing more (:func:`_bare_object`:
+    "cook pasta", "boil water")."""
     lexicon = index.lexicon
     i = 1 if tokens[:1] == ("please",) or _manner(tokens[0], lexicon) else 0
+    if tokens[i : i + 3] == ("be", "able", "to"):
+        i += 3
     if len(tokens) < i + 2:
-        return None
+        return None, False
     verb = tokens[i]
     if (
         tokens[i + 1] not in _AFTER_IMPERATIVE
         and not _bare_object(tokens, i + 1, index)
         and (tokens[i + 1] not in _AFTER_COMMAND_VERB or lexicon.has_noun(lexicon.lemma(verb)))
+        and not (verb in _COPULAR and tokens[i + 1].isalpha())
     ):
-        return None
+        return None, False
+    getting = verb in _GETTING
     if (
-        verb in g.FUNCTION_WORDS
+        (verb in g.FUNCTION_WORDS and verb not in _COMMAND_FUNCTION_VERBS)
         or verb in g.VIEW_TRIGGERS
         or verb in g.WH_WORDS
         or verb in _PICKING
-        or verb in g.FETCH_VERBS
+        or (verb in g.FETCH_VERBS and not getting)
         or verb in lexicon.colors
         or index.lookup((verb,)) is not None
         or not lexicon.verb_senses(verb)
         or lexicon.lemma(verb, "v") != verb
     ):
-        return None
-    return i
+        return None, False
+    return i, getting
 
 
 def _names_what_is_wanted(target: NounPhrase | None, purpose: int | None, fetch: bool) -> bool:

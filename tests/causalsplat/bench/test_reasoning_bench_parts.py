@@ -27,6 +27,31 @@ def test_absent_placements_hold_no_acceptable_label() -> None:
     assert rows and all(not labels[r.scan] & r.acceptable for r in rows)
 
 
+@pytest.mark.parametrize(
+    ("text", "command"),
+    [
+        ("I want to heat up my lunch.", "heat up my lunch"),
+        ("I'd like to sit down!", "sit down"),
+        ("Let me dry my hair", "dry my hair"),
+        ("I am thirsty", None),
+        ("I want a drink", None),  # a want of a thing, not of a deed
+    ],
+)
+def test_an_instruction_is_said_as_a_command(text: str, command: str | None) -> None:
+    assert ddn.as_command(text) == command
+
+
+@pytest.mark.shared_data
+def test_command_placements_keep_the_placement(tmp_path: Path) -> None:
+    if not ddn.available():
+        pytest.skip("DDN data not present")
+    pairs = ddn.command_placements("train")
+    assert len(pairs) > 100
+    for want, command in pairs:
+        assert (want.scan, want.acceptable) == (command.scan, command.acceptable)
+        assert want.text.lower().rstrip(".!").endswith(command.text.lower())
+
+
 @pytest.mark.shared_data
 def test_contradicted_variants_fit_no_object_of_the_target_label(tmp_path: Path) -> None:
     if not ref.DATA.exists():

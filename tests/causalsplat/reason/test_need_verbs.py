@@ -208,12 +208,21 @@ def test_a_need_said_as_a_command(
         ("eat soup from something", {"bowl"}),
         # the command is grounded as the want it says
         ("throw away this wrapper", {"trash can"}),
+        # verbs that take an adjective, verbs among the function words, "be able to"
+        ("keep my food cold", {"refrigerator"}),
+        ("stay warm tonight", {"bed"}),
+        ("do my laundry", {"washing machine"}),
+        ("be able to turn on the lamp", {"lamp"}),
+        # a verb of getting: what gives it when the room does not hold it by name (when it
+        # does, the thing itself: "grab a towel" above)
+        ("get some water", {"sink"}),
     ],
 )
 def test_commands_are_read_as_the_wants_they_say(
     reasoner: OfflineReasoner, text: str, answer: set[str]
 ) -> None:
-    room = _room("couch", "bed", "lamp", "towel", "stove", "bowl", "trash can", "table")
+    room = _room("couch", "bed", "lamp", "towel", "stove", "bowl", "trash can", "table",
+                 "refrigerator", "washing machine", "sink")  # fmt: skip
     got = reasoner.answer(text, room)
     assert set(got.categories) == answer, got.explanation
     assert got.explanation.startswith("read as: an action"), got.explanation
