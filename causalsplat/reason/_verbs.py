@@ -241,3 +241,29 @@ def verb_fit(need: NeedVerbs, facts: ObjectFacts | None, lexicon: Lexicon) -> fl
              for w in p.split()}  # fmt: skip
     acts_on = any(o in named for o in need.objects)
     return best * ((1.0 - OBJECT_SHARE) + (OBJECT_SHARE if acts_on else 0.0))
+
+
+def does_to(need: NeedVerbs, facts: ObjectFacts | None, lexicon: Lexicon) -> bool:
+    """Whether one phrase of a category's facts does the need's verb to what the need acts
+    on ("hanging towels" of a towel rack, for "hang my towels"): the phrase opens with the
+    verb (or a synonym) and names one of the need's objects.
+
+    >>> from causalsplat.reason.lexicon import load_lexicon
+    >>> from causalsplat.reason.knowledge import load_knowledge
+    >>> lex, table = load_lexicon(), load_knowledge()
+    >>> need = need_verbs(("i", "want", "to", "wash", "my", "clothes"), lex)
+    >>> does_to(need, table.get("washing machine"), lex), does_to(need, table.get("sink"), lex)
+    (True, False)
+    """
+    if facts is None or not need.verbs or not need.objects:
+        return False
+    for phrase in (*facts.affords, *facts.uses):
+        words = phrase.split()
+        if not words:
+            continue
+        head = lexicon.lemma(words[0], "v")
+        if max(_relatedness(v, head, lexicon) for v in need.verbs) < SYNONYM:
+            continue
+        if any(lexicon.lemma(w, "n") in need.objects for w in words[1:]):
+            return True
+    return False

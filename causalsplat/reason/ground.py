@@ -60,6 +60,7 @@ from causalsplat.reason._mentions import CategoryIndex, mention_at
 from causalsplat.reason._verbs import (
     NeedVerbs,
     affords_verb,
+    does_to,
     need_verbs,
     patient_verb,
     phrase_agrees,
@@ -364,17 +365,22 @@ class Grounder:
             # ("warm up the soup" as "I want to warm up the soup"), as needs are said
             query = f"{COMMAND_AS_WANT} {query}"
         acted = self.acted_on(ins)
+        verbs = need_verbs(purpose_tokens(ins), self.lexicon)
         # a category is scored without the words that name it as what the need acts on:
-        # "somewhere to put my cup down" does not ask for a cup
+        # "somewhere to put my cup down" does not ask for a cup; unless people do what the
+        # need asks to that very thing ("open the window", "play the guitar")
+        itself = self._does_it_to_itself(acted, verbs)
         own: dict[str, float] = {}
         for c, (a, b, _) in acted.items():
+            if c in itself:
+                continue
             words = [t for k, t in enumerate(ins.main_tokens) if not a <= k < b]
             masked = " ".join(t for t in words if t not in (",", "."))
             own[c] = self.meaning_of(masked, c)
         named = {c: v[2] for c, v in acted.items()}
-        verbs = need_verbs(purpose_tokens(ins), self.lexicon)
         patient = patient_verb(ins.main_tokens[_context_end(ins) :], self.lexicon)
-        ranked = self._rank("intent", query, named, need=True, own=own, patient=patient,
+        patients = {c: v for c, v in named.items() if c not in itself}
+        ranked = self._rank("intent", query, patients, need=True, own=own, patient=patient,
                             verbs=verbs)  # fmt: skip
         ranked = self._verb_gate(ranked, verbs)
         if ins.command and not ranked.chosen and named:
@@ -557,6 +563,29 @@ class Grounder:
             chosen = tuple(sorted(c.category for c in eligible if abs(c.score - top) <= TIE))
         return Grounding(how, query, tuple(cands[:TOP_K]), chosen, self.scorer.method,
                          reference=reference)  # fmt: skip
+
+    def _does_it_to_itself(
+        self, acted: dict[str, tuple[int, int, float]], verbs: NeedVerbs
+    ) -> frozenset[str]:
+        """The categories a need acts on that people do its verb to, by the knowledge
+        table (an ``affords`` phrase opens with it: a window is opened, a guitar played),
+        when nothing else here is for doing it to them (no other category's facts do the
+        verb to what the need names: a towel is hung, but on the towel rack): the need is
+        about them, not merely mentioning them."""
+        if not verbs.verbs or not acted:
+            return frozenset()
+        knowledge = self._knowledge()
+
+        def facts(c: str) -> ObjectFacts | None:
+            return facts_for(c, knowledge, self.lexicon)
+
+        if any(does_to(verbs, facts(c), self.lexicon) for c in self.ctx.categories
+               if c not in acted):  # fmt: skip
+            return frozenset()
+        return frozenset(
+            c for c in acted
+            if any(affords_verb(v, facts(c), self.lexicon) for v in verbs.verbs)
+        )  # fmt: skip
 
     def _doers_first(self, ranked: list[Candidate], verbs: NeedVerbs) -> list[Candidate]:
         """When the best candidate does not do what the need asks (no fact of it opens

@@ -216,13 +216,18 @@ def test_a_need_said_as_a_command(
         # a verb of getting: what gives it when the room does not hold it by name (when it
         # does, the thing itself: "grab a towel" above)
         ("get some water", {"sink"}),
+        # what people do to the very thing named is about it, when nothing else here is
+        # for doing it to that thing (a door opens too, a guitar case holds a guitar)
+        ("open the window", {"window"}),
+        ("play the guitar", {"guitar"}),
     ],
 )
 def test_commands_are_read_as_the_wants_they_say(
     reasoner: OfflineReasoner, text: str, answer: set[str]
 ) -> None:
     room = _room("couch", "bed", "lamp", "towel", "stove", "bowl", "trash can", "table",
-                 "refrigerator", "washing machine", "sink")  # fmt: skip
+                 "refrigerator", "washing machine", "sink", "window", "door", "curtain",
+                 "guitar", "guitar case")  # fmt: skip
     got = reasoner.answer(text, room)
     assert set(got.categories) == answer, got.explanation
     assert got.explanation.startswith("read as: an action"), got.explanation
