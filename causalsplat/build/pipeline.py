@@ -228,15 +228,8 @@ def _build(
     cache = StageCache(default_cache_dir() if cache_dir is True else (cache_dir or None))
     stages = _Stages(str(path), lines=progress and not sys.stderr.isatty())
     with stages.stage("load"):
-        folder = read_scene_folder(
-            path, max_views=config.max_views, allow_distortion=config.allow_distortion,
-            mask_budget=config.memory_budget_bytes() // _MASK_SHARE,
-        )  # fmt: skip
-        folder = scale_folder(
-            folder, config.image_scale, config.memory_budget_bytes() // _MASK_SHARE
-        )
+        folder, config, near_note = _load(path, config)
         hashes = _result_hashes(folder)
-        config, near_note = _near_for_scale(folder, config)
         coverage = check_coverage(folder, config)
     result = config.result_json()  # less the speed-only options
     field_key = cache_key(
@@ -260,7 +253,7 @@ def _build(
             assignment = assign_instances(
                 field, evidence, config.instances,
                 means=folder.gaussians.means, scales=folder.gaussians.scales,
-                quats=folder.gaussians.quats, mask_labels=_mask_labels(folder, evidence),
+                quats=folder.gaussians.quats, mask_labels=mask_labels(folder, evidence),
             )  # fmt: skip
             cache.put("instances", inst_key, _encode_assignment(assignment))
     if labeler is None and config.labeler == "vlm":
@@ -297,6 +290,33 @@ def _build(
         coverage=coverage,
         views_storage=storage,
     )
+
+
+def _load(path: Path, config: BuildConfig) -> tuple[SceneFolder, BuildConfig, str | None]:
+    """The folder as the build reads it (views, masks scaled to the budget), and the config
+    with its near plane suited to the scene's scale (and the note saying so)."""
+    folder = read_scene_folder(
+        path, max_views=config.max_views, allow_distortion=config.allow_distortion,
+        mask_budget=config.memory_budget_bytes() // _MASK_SHARE,
+    )  # fmt: skip
+    folder = scale_folder(folder, config.image_scale, config.memory_budget_bytes() // _MASK_SHARE)
+    config, near_note = _near_for_scale(folder, config)
+    return folder, config, near_note
+
+
+def build_field(
+    path: str | Path, config: BuildConfig | None = None
+) -> tuple[SceneFolder, BuildConfig, FeatureField, MaskEvidence]:
+    """The stages before the instances, as :func:`build_scene` runs them, uncached: the
+    folder as read, the config in force, the feature field and the mask evidence. For
+    analyses of the instance stage (``assign_instances`` on them is the build's)."""
+    config = config or BuildConfig()
+    with single_threaded_blas():
+        resolve_trainer(config.field)
+        folder, config, _ = _load(Path(path), config)
+        field, evidence, _ = _field_stage(folder, config, StageCache(None), "", _Stages(str(path)),
+                                          False)  # fmt: skip
+    return folder, config, field, evidence
 
 
 #: Coordinates rounded (float32) to more than this share of the Gaussians' median size are
@@ -468,7 +488,7 @@ def _graph(
                       masks=masks)  # fmt: skip
 
 
-def _mask_labels(folder: SceneFolder, evidence: MaskEvidence) -> list[str | None] | None:
+def mask_labels(folder: SceneFolder, evidence: MaskEvidence) -> list[str | None] | None:
     """The label of each usable mask (rows of ``evidence``), ``None`` where its view's
     masks carry none; ``None`` when no view's do."""
     if all(m.labels is None for m in folder.masks):

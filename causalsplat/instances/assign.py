@@ -141,6 +141,7 @@ def assign_instances(
     scales: np.ndarray,
     quats: np.ndarray | None = None,
     mask_labels: Sequence[str | None] | None = None,
+    mask_clusters: np.ndarray | None = None,
 ) -> InstanceAssignment:
     """Cluster the masks and give every Gaussian an entity (module docstring).
 
@@ -148,8 +149,19 @@ def assign_instances(
     surface graph of step 4; without ``quats`` its edges weigh distance only.
     ``mask_labels`` (M,): each usable mask's label (``None`` where it has none), for
     ``InstanceConfig.merge_structures``; without them no cluster is joined by its label.
+    ``mask_clusters`` (M,): a cluster per usable mask (integers, -1 for none) to use
+    instead of HDBSCAN's, the rest of the stage unchanged: a grouping made elsewhere, or
+    the masks grouped by their GT objects to measure what the clustering costs.
     """
-    raw = cluster_masks(evidence.features, config)
+    if mask_clusters is None:
+        raw = cluster_masks(evidence.features, config)
+    else:
+        raw = np.asarray(mask_clusters)
+        if raw.shape != (evidence.n,) or not np.issubdtype(raw.dtype, np.integer):
+            raise ValueError(
+                f"mask_clusters must be ({evidence.n},) integers, got {raw.shape} {raw.dtype}"
+            )
+        raw = raw.astype(np.int64)
     n_clusters = int(raw.max()) + 1 if raw.size else 0
     (cluster,) = by_first_appearance(raw)
     order = list(range(int(cluster.max(initial=-1)) + 1))
