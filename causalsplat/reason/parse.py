@@ -166,6 +166,9 @@ def parse_instruction(text: str, index: CategoryIndex) -> Instruction:
     if purpose is None:
         purpose, fetch = _imperative(main_tokens, index)
         command = purpose is not None
+        if fetch and (target is None or (target.is_any and target.mention is not None)):
+            # "take the one on the left": a picking, read as the description it opens
+            purpose, fetch, command = None, False, False
     wants = (
         g.ACTION_TRIGGERS.search(joined)
         or purpose is not None
@@ -289,6 +292,9 @@ _AFTER_COMMAND_VERB = frozenset({"on", "in", "into", "onto", "at", "with", "unde
 _COMMAND_FUNCTION_VERBS = frozenset({"put", "set", "do", "have", "get"})
 #: Verbs of getting: a command with one asks for its object when the scene has it.
 _GETTING = frozenset({"get", "grab", "fetch", "bring", "take", "have", "buy", "borrow"})
+#: Determiners of a definite object: one the speaker takes to be in the room.
+_DEFINITE = frozenset({"the", "this", "that", "these", "those", "my", "your", "our", "his",
+                       "her", "their"})  # fmt: skip
 #: Verbs that take an adjective or participle after them ("keep food fresh", "stay
 #: connected", "feel safe", "make sure"): any word may follow.
 _COPULAR = frozenset({"keep", "stay", "remain", "feel", "make", "become"})
@@ -336,6 +342,8 @@ def _imperative(tokens: tuple[str, ...], index: CategoryIndex) -> tuple[int | No
     acts on may be a bare noun when the command says nothing more (:func:`_bare_object`:
     "cook pasta", "boil water")."""
     lexicon = index.lexicon
+    if not tokens:
+        return None, False
     i = 1 if tokens[:1] == ("please",) or _manner(tokens[0], lexicon) else 0
     if tokens[i : i + 3] == ("be", "able", "to"):
         i += 3
@@ -350,6 +358,11 @@ def _imperative(tokens: tuple[str, ...], index: CategoryIndex) -> tuple[int | No
     ):
         return None, False
     getting = verb in _GETTING
+    if getting and tokens[i + 1 : i + 3] and (tokens[i + 1 : i + 3][-1] in _DEFINITE
+                                             or tokens[i + 1] in _DEFINITE):  # fmt: skip
+        # "bring me the cup", "get my phone": a definite object is one the speaker takes
+        # to be here, asked for as a description asks ("get some water" asks what gives it)
+        return None, False
     if (
         (verb in g.FUNCTION_WORDS and verb not in _COMMAND_FUNCTION_VERBS)
         or verb in g.VIEW_TRIGGERS

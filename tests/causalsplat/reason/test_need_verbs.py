@@ -235,6 +235,19 @@ def test_commands_are_read_as_the_wants_they_say(
     assert set(wanted.categories) == answer, wanted.explanation
 
 
+def test_a_definite_thing_to_get_is_one_the_speaker_takes_to_be_here(
+    reasoner: OfflineReasoner,
+) -> None:
+    room = _room("table", "sink", "stool", "bed")
+    # "the cup", "my phone": asked for as a description, so a room without one says so
+    for text in ("bring me the cup", "get my phone"):
+        got = reasoner.answer(text, room)
+        assert got.entity_ids == () and got.nothing_fits, got.explanation
+    # "some water", "a seat": what gives it
+    assert set(reasoner.answer("get some water", room).categories) == {"sink"}
+    assert set(reasoner.answer("have a seat", room).categories) == {"stool"}
+
+
 @pytest.mark.parametrize(
     ("text", "kind"),
     [
