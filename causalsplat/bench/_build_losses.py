@@ -33,13 +33,19 @@ from causalsplat.instances import assign_instances, scene_quality
 def mask_objects(evidence: MaskEvidence, gt: np.ndarray) -> np.ndarray:
     """(M,) the GT object holding most of each mask's blending weight (-1: none, or the
     unlabelled Gaussians)."""
-    labelled = gt >= 0
-    ids = np.unique(gt[labelled])
-    col = np.searchsorted(ids, gt[labelled])
+    return _heaviest(evidence.gaussian_weight, gt)
+
+
+def _heaviest(weights: sp.spmatrix, labels: np.ndarray) -> np.ndarray:
+    """(R,) for each row of ``weights`` (R, C), the label (of ``labels`` (C,), -1 for
+    none) whose columns carry most of its weight; -1 where none carries any."""
+    labelled = labels >= 0
+    ids = np.unique(labels[labelled])
+    col = np.searchsorted(ids, labels[labelled])
     onehot = sp.csr_matrix(
-        (np.ones(col.size), (np.flatnonzero(labelled), col)), shape=(gt.size, ids.size)
+        (np.ones(col.size), (np.flatnonzero(labelled), col)), shape=(labels.size, ids.size)
     )
-    weight = (evidence.gaussian_weight @ onehot).toarray()
+    weight = (weights @ onehot).toarray()
     best = weight.argmax(axis=1)
     return np.where(weight.max(axis=1) > 0, ids[best], -1).astype(np.int64)
 
@@ -73,14 +79,7 @@ def stage_losses(folder: Path) -> tuple[list[str], dict[str, Any]]:
     objects = mask_objects(evidence, gt)
     seen = np.asarray(evidence.gaussian_weight.sum(axis=0)).ravel()
     weak = seen < config.instances.min_evidence * float(np.median(seen[seen > 0]))
-    ids = np.unique(objects[objects >= 0])
-    votes = evidence.gaussian_weight.T @ sp.csr_matrix(
-        (np.ones(int((objects >= 0).sum())),
-         (np.flatnonzero(objects >= 0), np.searchsorted(ids, objects[objects >= 0]))),
-        shape=(evidence.n, ids.size),
-    )  # fmt: skip
-    votes = votes.toarray()
-    voted = np.where(votes.max(axis=1) > 0, ids[votes.argmax(axis=1)], -1)
+    voted = _heaviest(evidence.gaussian_weight.T.tocsr(), objects)
     oracle = assign_instances(field, evidence, config.instances, mask_clusters=objects,
                               **kwargs).labels  # fmt: skip
     rows = [
