@@ -697,6 +697,17 @@ class _Reader:
             # want the leftmost one": "one" is the target again, and what singles it out
             # singles out the target
             self.target = _merge_modifiers(self.target, np)
+        elif (
+            _modified(np)
+            and not np.is_any
+            and not self.target.is_any
+            and np.categories
+            and set(np.categories) == set(self.target.categories)
+            and not (k > 0 and self.items[k - 1].conjunction)
+        ):
+            # "this is a blue chair. it is the third chair from the right": the target
+            # named again, with what singles it out
+            self.target = _merge_modifiers(self.target, _without_repeats(np, self.target))
         elif k > 0 and self.items[k - 1].conjunction and not self.constraints:
             self.target = replace(self.target, coordinated=(*self.target.coordinated, np))
         else:
@@ -852,6 +863,16 @@ def _merge_modifiers(subject: NounPhrase, target: NounPhrase) -> NounPhrase:
         place=subject.place or target.place,
         place_negated=subject.place_negated if subject.place else target.place_negated,
         ordinal=subject.ordinal or target.ordinal,
+    )
+
+
+def _without_repeats(np: NounPhrase, target: NounPhrase) -> NounPhrase:
+    """``np`` less the attributes and extremes ``target`` already has ("a black chair. the
+    black chair is the third one": black once)."""
+    return replace(
+        np,
+        attributes=tuple(a for a in np.attributes if a not in target.attributes),
+        extremes=tuple(e for e in np.extremes if e not in target.extremes),
     )
 
 

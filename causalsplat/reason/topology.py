@@ -455,7 +455,9 @@ class Planner:
         (closest to the centre) or by itself (farthest from the nearest other entity of
         ``base``, the phrase's candidates before relations); negated, every other one."""
         b = self.b
-        if np.place is None or b.size(step) < 2 or np.side or np.ordinal:
+        if np.place is None or b.size(step) < 2 or np.side or (np.ordinal or 1) != 1:
+            # "the third one in the corner" counts along a row; "the first one, in the
+            # corner" says only where it is
             return step
         if np.place == "corner":
             there = b.add(Op.ARGMAX, step, metric=Metric.HORIZONTAL_DISTANCE)

@@ -90,6 +90,24 @@ def test_sides_and_ordinals_without_an_anchor(room: SceneContext) -> None:
     assert ask(room, "the leftmost chair") == (7,)
     second = ask(room, "the second chair from the left")
     assert len(second) == 1 and second[0] in (5, 6)
+    # the target named again in a second sentence brings what singles it out with it
+    assert ask(room, "this is a chair. it is the second chair from the left") == second
+    assert ask(room, "it is a chair. the chair is the leftmost chair") == (7,)
+
+
+def test_first_alone_says_nothing_of_where() -> None:
+    # "the first chair, in the corner": with no side to count from, "first" ranks
+    # nothing and the corner decides (a small chair in the corner, a large one mid-room)
+    from causalsplat.objects import objects_to_scene_graph, parse_objects
+
+    doc = {"scene_id": "first", "objects": [
+        {"id": 1, "label": "floor", "center": [3, 2, -0.01], "size": [6, 4, 0.02]},
+        {"id": 2, "label": "chair", "center": [3, 2, 0.5], "size": [0.9, 0.9, 1.0]},
+        {"id": 3, "label": "chair", "center": [5.6, 3.6, 0.4], "size": [0.5, 0.5, 0.8]},
+    ]}  # fmt: skip
+    ctx = SceneContext(objects_to_scene_graph(parse_objects(doc)))
+    assert ask(ctx, "it is the very first chair, located in the corner of the room") == (3,)
+    assert ask(ctx, "the chair") == (2,)  # the largest, without the corner
 
 
 def test_negation_subtracts_the_related_set(room: SceneContext) -> None:
