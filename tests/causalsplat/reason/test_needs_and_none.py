@@ -205,12 +205,33 @@ def test_colour_programs_agree_on_every_executor(tmp_path: Path) -> None:
 
 
 def test_of_several_left_for_one_the_nearest_in_colour_is_taken() -> None:
-    # two grey armchairs (both named gray): "the white armchair" keeps both (no candidate
-    # is called white) and takes the lighter one, not the larger one
+    # two grey armchairs (both named gray): "the white armchair" is the lighter one, not
+    # the larger one, though neither is called white; far apart in colour, the word
+    # keeps one of them
     doc = _coloured(("armchair", 0, (150, 150, 150)), ("armchair", 3, (95, 95, 95)))
+    doc["objects"][1]["size"] = [1.2, 1.2, 1.0]
+    ctx = SceneContext(objects_to_scene_graph(parse_objects(doc)))
+    answer = LEXICAL.answer("the white armchair", ctx)
+    assert answer.entity_ids == (1,) and "1 of 2 candidates by colour" in answer.explanation
+    assert LEXICAL.answer("the black armchair", ctx).entity_ids == (2,)
+    assert LEXICAL.answer("the armchair", ctx).entity_ids == (2,)  # no colour: the largest
+    # within COLOUR_MARGIN of each other both are kept, and the nearer one is taken
+    doc = _coloured(("armchair", 0, (150, 150, 150)), ("armchair", 3, (140, 140, 140)))
     doc["objects"][1]["size"] = [1.2, 1.2, 1.0]
     ctx = SceneContext(objects_to_scene_graph(parse_objects(doc)))
     answer = LEXICAL.answer("the white armchair", ctx)
     assert answer.entity_ids == (1,) and "nearest in colour" in answer.explanation
     assert LEXICAL.answer("the black armchair", ctx).entity_ids == (2,)
-    assert LEXICAL.answer("the armchair", ctx).entity_ids == (2,)  # no colour: the largest
+
+
+def test_a_basic_colour_word_keeps_a_candidate_whose_colour_another_term_names() -> None:
+    # a shaded grey chair's measured colour is named black, as is a black chair's; no
+    # chair is named gray. "the gray chair next to the table" is the grey one, though the
+    # black one is nearer the table: the word narrows by distance, not by names
+    doc = _coloured(("chair", 0, (55, 55, 55)), ("chair", 3, (10, 10, 10)),
+                    ("chair", -3, (200, 30, 30)), ("table", 4, (120, 80, 50)))  # fmt: skip
+    ctx = SceneContext(objects_to_scene_graph(parse_objects(doc)))
+    assert [ctx.by_id[i].attribute_values("color") for i in (1, 2)] == [("black",)] * 2
+    answer = LEXICAL.answer("the gray chair next to the table", ctx)
+    assert answer.entity_ids == (1,) and "1 of 3 candidates by colour" in answer.explanation
+    assert LEXICAL.answer("the chair next to the table", ctx).entity_ids == (2,)
