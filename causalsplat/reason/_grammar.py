@@ -75,9 +75,12 @@ BACK_REFERENCES = frozenset({"it", "its", "them", "their", "top", "itself", "thi
 
 NEGATIONS = frozenset({"not", "no", "never", "except", "without"})
 PRONOUNS = frozenset({"it", "them", "this", "that", "these", "those", "its", "itself", "they"})
-DETERMINERS = frozenset({"the", "a", "an", "this", "that", "these", "those", "its", "their",
-                         "his", "her", "my", "your", "our", "some", "any", "another", "other",
-                         "each", "every"})  # fmt: skip
+#: Possessive determiners ("my hands", "their cups").
+POSSESSIVES = frozenset({"my", "your", "our", "his", "her", "their", "its"})
+#: Determiners of a definite noun phrase: one the speaker takes to be known ("the cup",
+#: "my phone").
+DEFINITE = POSSESSIVES | {"the", "this", "that", "these", "those"}
+DETERMINERS = DEFINITE | {"a", "an", "some", "any", "another", "other", "each", "every"}
 #: Nouns that name places or parts, never a target or anchor of their own.
 SPATIAL_NOUNS = frozenset({
     "top", "bottom", "side", "left", "right", "front", "back", "middle", "center", "centre",

@@ -43,7 +43,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from causalsplat.reason._grammar import ACTION_STOPWORDS, DETERMINERS, PARTICLES
+from causalsplat.reason._grammar import ACTION_STOPWORDS, DETERMINERS, PARTICLES, POSSESSIVES
 from causalsplat.reason.knowledge import ObjectFacts
 from causalsplat.reason.lexicon import Lexicon
 
@@ -148,8 +148,8 @@ def affords_verb(verb: str, facts: ObjectFacts | None, lexicon: Lexicon) -> bool
 _ANY_OBJECT = frozenset({"item", "items", "thing", "things", "stuff", "object", "objects",
                          "belongings"})  # fmt: skip
 
-#: Possessives before an object ("your hands").
-_POSSESSIVES = frozenset({"your", "his", "her", "their", "its", "our", "my", "one's"})
+#: Possessives before an object ("your hands", "one's teeth").
+_POSSESSIVES = POSSESSIVES | {"one's"}
 #: How many hypernym steps apart two objects may be and still be one kind ("meal" is a
 #: kind of "food" two steps up).
 KIND_DEPTH = 4

@@ -55,7 +55,13 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from causalsplat.reason._grammar import ACTION_STOPWORDS, DETERMINERS, PARTICLES, state_at
+from causalsplat.reason._grammar import (
+    ACTION_STOPWORDS,
+    DETERMINERS,
+    PARTICLES,
+    POSSESSIVES,
+    state_at,
+)
 from causalsplat.reason._mentions import CategoryIndex, mention_at
 from causalsplat.reason._verbs import (
     NeedVerbs,
@@ -139,7 +145,7 @@ UNSPECIFIC = frozenset({"object", "objects", "otherprop", "otherfurniture", "oth
                         "stuff", "thing", "things", "item", "items", "unknown", "misc",
                         "structure", "furniture", "clutter"})  # fmt: skip
 #: Words between a preposition and its noun ("on my own desk").
-_POSSESSIVES = frozenset({"my", "your", "our", "his", "her", "their", "its", "own"})
+_POSSESSIVES = POSSESSIVES | {"own"}
 #: Prepositions after which a named thing is where or with what the need is met.
 _PREPOSITIONS = frozenset({"on", "in", "at", "into", "onto", "upon", "with", "using", "from",
                            "under", "near", "inside", "beside", "by", "over", "off"})  # fmt: skip

@@ -292,9 +292,6 @@ _AFTER_COMMAND_VERB = frozenset({"on", "in", "into", "onto", "at", "with", "unde
 _COMMAND_FUNCTION_VERBS = frozenset({"put", "set", "do", "have", "get"})
 #: Verbs of getting: a command with one asks for its object when the scene has it.
 _GETTING = frozenset({"get", "grab", "fetch", "bring", "take", "have", "buy", "borrow"})
-#: Determiners of a definite object: one the speaker takes to be in the room.
-_DEFINITE = frozenset({"the", "this", "that", "these", "those", "my", "your", "our", "his",
-                       "her", "their"})  # fmt: skip
 #: Verbs that take an adjective or participle after them ("keep food fresh", "stay
 #: connected", "feel safe", "make sure"): any word may follow.
 _COPULAR = frozenset({"keep", "stay", "remain", "feel", "make", "become"})
@@ -358,8 +355,8 @@ def _imperative(tokens: tuple[str, ...], index: CategoryIndex) -> tuple[int | No
     ):
         return None, False
     getting = verb in _GETTING
-    if getting and tokens[i + 1 : i + 3] and (tokens[i + 1 : i + 3][-1] in _DEFINITE
-                                             or tokens[i + 1] in _DEFINITE):  # fmt: skip
+    if getting and tokens[i + 1 : i + 3] and (tokens[i + 1 : i + 3][-1] in g.DEFINITE
+                                             or tokens[i + 1] in g.DEFINITE):  # fmt: skip
         # "bring me the cup", "get my phone": a definite object is one the speaker takes
         # to be here, asked for as a description asks ("get some water" asks what gives it)
         return None, False
