@@ -204,24 +204,26 @@ def test_colour_programs_agree_on_every_executor(tmp_path: Path) -> None:
         assert set(results.values()) == {(1, 3)}
 
 
-def test_of_several_left_for_one_the_nearest_in_colour_is_taken() -> None:
-    # two grey armchairs (both named gray): "the white armchair" is the lighter one, not
-    # the larger one, though neither is called white; far apart in colour, the word
-    # keeps one of them
-    doc = _coloured(("armchair", 0, (150, 150, 150)), ("armchair", 3, (95, 95, 95)))
+def _grey_armchairs(lighter: int, darker: int) -> SceneContext:
+    """Two grey armchairs (both named gray), the darker one larger."""
+    doc = _coloured(("armchair", 0, (lighter,) * 3), ("armchair", 3, (darker,) * 3))
     doc["objects"][1]["size"] = [1.2, 1.2, 1.0]
-    ctx = SceneContext(objects_to_scene_graph(parse_objects(doc)))
+    return SceneContext(objects_to_scene_graph(parse_objects(doc)))
+
+
+@pytest.mark.parametrize(
+    ("darker", "how"),
+    [(95, "1 of 2 candidates by colour"),  # far apart in colour: the word keeps one
+     (140, "nearest in colour")],  # within COLOUR_MARGIN: both kept, the nearer taken
+)  # fmt: skip
+def test_of_several_left_for_one_the_nearest_in_colour_is_taken(darker: int, how: str) -> None:
+    # "the white armchair" is the lighter one, not the larger one, though neither is
+    # called white
+    ctx = _grey_armchairs(150, darker)
     answer = LEXICAL.answer("the white armchair", ctx)
-    assert answer.entity_ids == (1,) and "1 of 2 candidates by colour" in answer.explanation
+    assert answer.entity_ids == (1,) and how in answer.explanation
     assert LEXICAL.answer("the black armchair", ctx).entity_ids == (2,)
     assert LEXICAL.answer("the armchair", ctx).entity_ids == (2,)  # no colour: the largest
-    # within COLOUR_MARGIN of each other both are kept, and the nearer one is taken
-    doc = _coloured(("armchair", 0, (150, 150, 150)), ("armchair", 3, (140, 140, 140)))
-    doc["objects"][1]["size"] = [1.2, 1.2, 1.0]
-    ctx = SceneContext(objects_to_scene_graph(parse_objects(doc)))
-    answer = LEXICAL.answer("the white armchair", ctx)
-    assert answer.entity_ids == (1,) and "nearest in colour" in answer.explanation
-    assert LEXICAL.answer("the black armchair", ctx).entity_ids == (2,)
 
 
 def test_a_basic_colour_word_keeps_a_candidate_whose_colour_another_term_names() -> None:
