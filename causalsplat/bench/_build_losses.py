@@ -71,7 +71,8 @@ def stage_losses(folder: Path) -> tuple[list[str], dict[str, Any]]:
     """The table of the module docstring for one scene folder with GT labels."""
     scene, config, field, evidence = build_field(folder)
     gt = scene.gt_labels
-    assert gt is not None, f"{folder} has no GT labels"
+    if gt is None:
+        raise ValueError(f"{folder} has no GT labels (gt/gt_labels.npy)")
     g = scene.gaussians
     kwargs = dict(means=g.means, scales=g.scales, quats=g.quats,
                   mask_labels=mask_labels(scene, evidence))  # fmt: skip

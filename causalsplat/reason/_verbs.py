@@ -140,8 +140,8 @@ def affords_verb(verb: str, facts: ObjectFacts | None, lexicon: Lexicon) -> bool
     opens with it."""
     if facts is None:
         return False
-    heads = {lexicon.lemma(p.split()[0], "v") for p in facts.affords if p}
-    return any(_relatedness(verb, h, lexicon) >= SYNONYM for h in heads)
+    return any(_relatedness(verb, head, lexicon) >= SYNONYM
+               for head, _ in _headed(facts.affords, lexicon))  # fmt: skip
 
 
 #: Objects that stand for anything ("store items"): they agree with every object.
@@ -168,7 +168,7 @@ def phrase_agrees(need: NeedVerbs, phrase: str, lexicon: Lexicon) -> bool | None
     head = lexicon.lemma(words[0], "v")
     if head in LIGHT_VERBS or not lexicon.verb_senses(head):
         return None
-    if max(_relatedness(v, head, lexicon) for v in need.verbs) <= 0.0:
+    if _verb_relatedness(need, head, lexicon) <= 0.0:
         return False
     objects = [
         lexicon.lemma(w, "n")
@@ -216,16 +216,24 @@ def _relatedness(a: str, b: str, lexicon: Lexicon) -> float:
     return best
 
 
+def _headed(phrases: tuple[str, ...], lexicon: Lexicon) -> list[tuple[str, list[str]]]:
+    """Each non-empty phrase's head (its first word as a verb's base form) and words."""
+    return [(lexicon.lemma(words[0], "v"), words) for words in map(str.split, phrases) if words]
+
+
+def _verb_relatedness(need: NeedVerbs, head: str, lexicon: Lexicon) -> float:
+    """How near ``head`` is to the closest of the need's verbs (:func:`_relatedness`)."""
+    return max(_relatedness(v, head, lexicon) for v in need.verbs)
+
+
 def verb_fit(need: NeedVerbs, facts: ObjectFacts | None, lexicon: Lexicon) -> float:
     """How well a category's facts afford the need's verbs, in ``[0, 1]`` (module
     docstring); 0 without facts or verbs."""
     if facts is None or not need.verbs:
         return 0.0
     best = 0.0
-    phrases = [p.split() for p in (*facts.affords, *facts.uses) if p]
-    for words in phrases:
-        head = lexicon.lemma(words[0], "v")
-        rel = max(_relatedness(v, head, lexicon) for v in need.verbs)
+    for head, words in _headed((*facts.affords, *facts.uses), lexicon):
+        rel = _verb_relatedness(need, head, lexicon)
         if rel <= 0.0:
             continue
         if need.particle is not None:
@@ -257,13 +265,8 @@ def does_to(need: NeedVerbs, facts: ObjectFacts | None, lexicon: Lexicon) -> boo
     """
     if facts is None or not need.verbs or not need.objects:
         return False
-    for phrase in (*facts.affords, *facts.uses):
-        words = phrase.split()
-        if not words:
-            continue
-        head = lexicon.lemma(words[0], "v")
-        if max(_relatedness(v, head, lexicon) for v in need.verbs) < SYNONYM:
-            continue
-        if any(lexicon.lemma(w, "n") in need.objects for w in words[1:]):
-            return True
-    return False
+    return any(
+        _verb_relatedness(need, head, lexicon) >= SYNONYM
+        and any(lexicon.lemma(w, "n") in need.objects for w in words[1:])
+        for head, words in _headed((*facts.affords, *facts.uses), lexicon)
+    )

@@ -355,8 +355,7 @@ def _imperative(tokens: tuple[str, ...], index: CategoryIndex) -> tuple[int | No
     ):
         return None, False
     getting = verb in _GETTING
-    if getting and tokens[i + 1 : i + 3] and (tokens[i + 1 : i + 3][-1] in g.DEFINITE
-                                             or tokens[i + 1] in g.DEFINITE):  # fmt: skip
+    if getting and any(t in g.DEFINITE for t in tokens[i + 1 : i + 3]):
         # "bring me the cup", "get my phone": a definite object is one the speaker takes
         # to be here, asked for as a description asks ("get some water" asks what gives it)
         return None, False

@@ -183,10 +183,10 @@ class Planner:
         than :data:`COLOUR_CONTRADICTED` beyond its own colour's name, the scene
         contradicts the word and nothing is kept; otherwise the candidates within
         :data:`COLOUR_MARGIN` of the nearest are, whatever basic term each one's colour
-        is nearest to (a "gray" chair whose measured colour is named white is kept when no
-        chair is nearer to gray). When some candidates store a colour name but no ``rgb``,
-        a basic term selects those it names. ``None`` (match stored names as written)
-        when no candidate stores a colour."""
+        is nearest to (a shaded grey chair whose measured colour is named black is "the
+        gray chair" when no chair is nearer to gray). When some candidates store a colour
+        name but no ``rgb``, a basic term selects those it names. ``None`` (match stored
+        names as written) when no candidate stores a colour."""
         b = self.b
         name = _colour_word(word)
         term = names_of(WORDS[name])[0]
