@@ -90,6 +90,12 @@ WORDS: dict[str, tuple[float, float, float]] = {
 _SUFFIXED = re.compile(r"^([a-z]+?)(?:ish|dish|-ish)$")
 #: How much white (``light``) or black (``dark``) is mixed into a word's prototype.
 SHADE_MIX = 0.45
+#: Words that make a colour lighter or darker ("light blue", "dark brown"); said of a
+#: thing alone ("the dark couch", "a light-coloured table") they name its lightness.
+SHADES: dict[str, str] = {
+    "light": "light", "lighter": "light", "pale": "light", "pastel": "light",
+    "dark": "dark", "darker": "dark", "deep": "dark",
+}  # fmt: skip
 #: A term names a colour when it is within this much (weighted Delta E) of the nearest term.
 NAME_MARGIN = 12.0
 _WEIGHT = np.array([0.5, 1.0, 1.0])
@@ -198,6 +204,31 @@ def _word(word: str) -> str | None:
 def is_color_word(word: str) -> bool:
     """Whether ``word`` names a colour (a basic term, another colour word, or its -ish form)."""
     return _word(word) is not None
+
+
+def colour_phrase(text: str) -> tuple[str | None, str | None] | None:
+    """A colour phrase as (colour word, shade): "dark brown" -> ("brown", "dark"), "navy"
+    -> ("navy", None), "pale" -> (None, "light"); ``None`` when ``text`` is no colour
+    phrase.
+
+    >>> colour_phrase("light blue"), colour_phrase("greyish"), colour_phrase("dark")
+    (('blue', 'light'), ('grey', None), (None, 'dark'))
+    >>> colour_phrase("wooden") is None
+    True
+    """
+    words = text.lower().split()
+    shade = SHADES.get(words[0]) if words else None
+    if shade is not None:
+        words = words[1:]
+    if not words:
+        return (None, shade) if shade is not None else None
+    name = _word(words[0]) if len(words) == 1 else None
+    return None if name is None else (name, shade)
+
+
+def lightness(rgb: Sequence[float] | np.ndarray) -> float:
+    """CIELAB L* (0 black to 100 white) of an sRGB colour."""
+    return float(srgb_to_lab(rgb)[0])
 
 
 def word_lab(word: str, shade: str | None = None) -> np.ndarray | None:

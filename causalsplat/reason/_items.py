@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from causalsplat.colors import is_color_word
+from causalsplat.colors import SHADES, is_color_word
 from causalsplat.reason import _grammar as g
 from causalsplat.reason._mentions import CategoryIndex, foreign_at, mention_at
 from causalsplat.reason._text import ORDINALS
@@ -26,14 +26,19 @@ _SIDE_CUES = {"side_left": "left", "side_right": "right", "side_middle": "middle
 _PLACE_CUES = {"place_corner": "corner", "place_centre": "centre", "place_alone": "alone"}
 #: Nouns of position that, right before a noun, single out the highest or lowest of its kind.
 _POSITION_ADJECTIVES = {"top": "highest", "bottom": "lowest"}
+#: Words after a shade that make it the thing's lightness ("dark-coloured", "light toned").
+_COLOURED = frozenset({"colored", "coloured", "color", "colour", "toned", "tone", "hued"})
+#: Shade words that name a lightness by themselves ("the dark couch", "it is pale"):
+#: "light" is also a thing, "deep" a depth.
+_LONE_SHADES = frozenset({"dark", "darker", "pale"})
 
 
 @dataclass(frozen=True, slots=True)
 class Modifier:
     """``kind`` is ``attribute`` (``value`` a word), ``extreme`` (``value`` the word,
     ``metric`` and ``direction`` what it ranks by), ``side`` (``value`` left/right/middle),
-    ``place`` (``value`` corner/centre/alone; ``negated``: not there) or ``ordinal``
-    (``number``)."""
+    ``place`` (``value`` corner/centre/alone) or ``ordinal`` (``number``); ``negated``:
+    not there, or not that ("not in the corner", "not black")."""
 
     kind: str
     value: str = ""
@@ -70,6 +75,25 @@ def _modifier(word: str, index: CategoryIndex) -> Modifier | None:
         return Modifier("ordinal", number=-1)
     if word in index.attribute_words or word in index.lexicon.colors or is_color_word(word):
         return Modifier("attribute", word)
+    return None
+
+
+def _shade_at(tokens: tuple[str, ...], i: int) -> tuple[str, int] | None:
+    """A shade word and what it qualifies, as one attribute and where it ends: "dark
+    brown" (a shaded colour), "light coloured", "the light one" and "the dark couch" (a
+    lightness)."""
+    word = tokens[i]
+    if word not in SHADES:
+        return None
+    after = tokens[i + 1] if i + 1 < len(tokens) else ""
+    if is_color_word(after):
+        return f"{word} {after}", i + 2
+    if after in _COLOURED:
+        return word, i + 2
+    if after in ("one", "ones"):
+        return word, i + 1
+    if word in _LONE_SHADES:
+        return word, i + 1
     return None
 
 
@@ -169,6 +193,11 @@ def read_items(
             metric, direction = g.EXTREMES[_POSITION_ADJECTIVES[t]]
             pending.append((i, Modifier("extreme", t, direction=direction, metric=metric)))
             i += 1
+            continue
+        shade = _shade_at(tokens, i)
+        if shade is not None:
+            pending.append((i, Modifier("attribute", shade[0])))
+            i = shade[1]
             continue
         mention = mention_at(index, tokens, i)
         if mention is not None:

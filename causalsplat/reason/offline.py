@@ -234,6 +234,7 @@ def _describe(ins: Instruction) -> str:
     for c in target.constraints:
         neg = "not " if c.negated else ""
         parts.append(f"{neg}{c.kind} {' and '.join(repr(a.text) for a in c.anchors)}")
+    parts += [f"not {word}" for word in target.not_attributes]
     if target.extremes:
         parts.append(f"{target.extremes[0][1]} {target.extremes[0][0]}")
     if target.place:

@@ -32,11 +32,14 @@ class NounPhrase:
     ``right`` / ``middle`` / ``top``; ``ordinal`` is 1 for "first", 2 for "second"...;
     ``place`` is where in the room it stands: ``corner`` (farthest from the scene centre),
     ``centre`` (closest to it) or ``alone`` (farthest from the others of its kind);
-    ``place_negated``: not the one there ("not the one in the corner").
+    ``place_negated``: not the one there ("not the one in the corner");
+    ``not_attributes``: attribute words it does not have ("the chair that is not black",
+    "the brown door, not the white one").
     """
 
     mention: Mention | None
     attributes: tuple[str, ...] = ()
+    not_attributes: tuple[str, ...] = ()
     extremes: tuple[tuple[Metric, Op], ...] = ()
     side: str | None = None
     ordinal: int | None = None
@@ -645,12 +648,14 @@ class _Reader:
                 negated = True
             elif it.mod is not None:
                 mod = it.mod
-                if negated and mod.kind == "place":  # "not the one in the corner"
+                if negated and mod.kind in ("place", "attribute"):
+                    # "not the one in the corner", "the chair that is not black"
                     mod = replace(mod, negated=True)
                     negated = False
                 self.mods.append(mod)
             elif it.np is not None:
-                self._noun_phrase(k, it.np)  # type: ignore[arg-type]
+                if self._noun_phrase(k, it.np, negated=negated):  # type: ignore[arg-type]
+                    negated = False
             elif it.cue is not None and self._before_its_noun(k):
                 k = self._superlative(k)
                 negated = False
@@ -671,7 +676,20 @@ class _Reader:
             k += 1
         return self._finish()
 
-    def _noun_phrase(self, k: int, np: NounPhrase) -> None:
+    def _noun_phrase(self, k: int, np: NounPhrase, *, negated: bool = False) -> bool:
+        """Give the phrase its role; ``True`` when it took a negation before it ("the
+        brown door, not the white one": the target is not white)."""
+        if (
+            negated
+            and self.target is not None
+            and np.attributes
+            and not self.target.is_any
+            and (np.is_any or set(np.categories) == set(self.target.categories))
+        ):
+            self.target = replace(
+                self.target, not_attributes=(*self.target.not_attributes, *np.attributes)
+            )
+            return True
         if self.target is None or (
             not self.target.resolved and np.resolved and not np.is_any and not self.constraints
         ):
@@ -708,6 +726,7 @@ class _Reader:
             self.target = replace(self.target, coordinated=(*self.target.coordinated, np))
         else:
             self.free = np
+        return False
 
     def _before_its_noun(self, k: int) -> bool:
         """ "the closest chair (to the door)": a closest / farthest cue without its "to" /
@@ -832,9 +851,11 @@ class _Reader:
 def _with_modifiers(np: NounPhrase, mods: list[Modifier]) -> NounPhrase:
     if not mods:
         return np
+    attributes = [m for m in mods if m.kind == "attribute"]
     return replace(
         np,
-        attributes=(*np.attributes, *(m.value for m in mods if m.kind == "attribute")),
+        attributes=(*np.attributes, *(m.value for m in attributes if not m.negated)),
+        not_attributes=(*np.not_attributes, *(m.value for m in attributes if m.negated)),
         extremes=(*np.extremes, *((m.metric, m.direction) for m in mods if m.kind == "extreme")),
         side=np.side or next((m.value for m in mods if m.kind == "side"), None),
         place=np.place or next((m.value for m in mods if m.kind == "place"), None),
@@ -854,6 +875,7 @@ def _merge_modifiers(subject: NounPhrase, target: NounPhrase) -> NounPhrase:
     return replace(
         subject,
         attributes=(*subject.attributes, *target.attributes),
+        not_attributes=(*subject.not_attributes, *target.not_attributes),
         extremes=(*subject.extremes, *target.extremes),
         side=subject.side or target.side,
         place=subject.place or target.place,

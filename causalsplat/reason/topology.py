@@ -41,13 +41,13 @@ from dataclasses import dataclass
 from causalsplat.colors import (
     BASIC,
     WORDS,
-    is_color_word,
+    colour_phrase,
+    lightness,
     names_of,
     nearest_term_distance,
     rgb_to_hex,
     word_distance,
 )
-from causalsplat.colors import color_word as _colour_word
 from causalsplat.reason._builder import SCENE, ProgramBuilder
 from causalsplat.reason.parse import Constraint, Instruction, NounPhrase
 from graph_store import RelationType
@@ -68,6 +68,11 @@ COLOUR_MARGIN = 10.0
 #: of 460 descriptions, colours of the scans' object tables): 98 % of targets are within
 #: 65 of the word they are called.
 COLOUR_CONTRADICTED = 65.0
+#: "the dark couch", "a light-coloured table": the candidates within this much lightness
+#: (CIELAB L*) of the darkest or lightest are kept, as COLOUR_MARGIN keeps them by colour.
+#: Shades and negated colours together: Nr3D / ScanRefer *train* samples 67.4 -> 67.6 % /
+#: 63.0 -> 63.1 % (few descriptions use them; none answered worse on Nr3D, one on ScanRefer).
+LIGHTNESS_MARGIN = 10.0
 STORED = ("supported_by", "supports", "above", "below", "inside", "contains")
 VIEW = ("left_of", "right_of", "in_front_of", "behind")
 RELAXATIONS: dict[str, tuple[str, ...]] = {
@@ -151,6 +156,8 @@ class Planner:
             return None
         for word in np.attributes:
             step = self._attribute(step, word)
+        for word in np.not_attributes:
+            step = self._not_attribute(step, word)
         return step
 
     def _non_structural(self) -> int:
@@ -163,8 +170,10 @@ class Planner:
 
     def _attribute(self, step: int, word: str) -> int:
         b = self.b
-        if is_color_word(word):
-            colour = self._colour(step, word)
+        phrase = colour_phrase(word)
+        if phrase is not None:
+            name = phrase[0]
+            colour = self._colour(step, word) if name is not None else self._lightness(step, word)
             if colour is not None:
                 return colour
         wanted = normalise_text(word)
@@ -177,6 +186,59 @@ class Planner:
             return step
         return filtered
 
+    def _not_attribute(self, step: int, word: str) -> int:
+        """The candidates without an attribute ("not the white one"): the one a colour word
+        fits best, or those a stored attribute value names, are dropped, unless that drops
+        them all (the word then tells none apart)."""
+        b = self.b
+        phrase = colour_phrase(word)
+        ids = b.value(step)
+        known = self._colours(ids)
+        with_it: int | None = None
+        if phrase is not None and known:
+            if len(known) < len(ids):
+                return step
+            name, _ = phrase
+            if name is not None:
+                keep = self._nearest(known, word, margin=0.0)
+            else:
+                keep = self._darkest(known, word, margin=0.0)
+            with_it = self._keep_colours(step, [known[i] for i in keep])
+        else:
+            wanted = normalise_text(word)
+            pairs = [(k, v) for k, v in self.ctx.attribute_pairs() if normalise_text(v) == wanted]
+            if pairs:
+                with_it = b.union(
+                    [b.add(Op.FILTER_ATTRIBUTE, step, value=f"{k}={v}") for k, v in pairs]
+                )
+        if with_it is None or b.size(with_it) in (0, b.size(step)):
+            return step
+        b.note(f"not {word}: {b.size(step) - b.size(with_it)} of {b.size(step)} candidates")
+        return b.add(Op.DIFFERENCE, step, with_it)
+
+    def _nearest(
+        self, known: dict[int, tuple[float, float, float]], word: str,
+        margin: float = COLOUR_MARGIN,
+    ) -> list[int]:  # fmt: skip
+        """Those of ``known`` within ``margin`` of the nearest to a colour phrase."""
+        name, shade = colour_phrase(word) or (None, None)
+        assert name is not None
+        dist = {i: word_distance(name, rgb, shade) for i, rgb in known.items()}
+        best = min(dist.values())
+        return [i for i in known if dist[i] <= best + margin]
+
+    def _darkest(
+        self, known: dict[int, tuple[float, float, float]], word: str,
+        margin: float = LIGHTNESS_MARGIN,
+    ) -> list[int]:  # fmt: skip
+        """Those of ``known`` within ``margin`` (of L*) of the darkest, or for a light shade
+        the lightest."""
+        _, shade = colour_phrase(word) or (None, None)
+        sign = 1.0 if shade == "dark" else -1.0
+        level = {i: sign * lightness(rgb) for i, rgb in known.items()}
+        best = min(level.values())
+        return [i for i in known if level[i] <= best + margin]
+
     def _colour(self, step: int, word: str) -> int | None:
         """A colour word, by perceptual distance to the candidates' stored colours
         (``rgb``; :mod:`causalsplat.colors`). When even the nearest candidate is farther
@@ -184,11 +246,13 @@ class Planner:
         contradicts the word and nothing is kept; otherwise the candidates within
         :data:`COLOUR_MARGIN` of the nearest are, whatever basic term each one's colour
         is nearest to (a shaded grey chair whose measured colour is named black is "the
-        gray chair" when no chair is nearer to gray). When some candidates store a colour
-        name but no ``rgb``, a basic term selects those it names. ``None`` (match stored
-        names as written) when no candidate stores a colour."""
+        gray chair" when no chair is nearer to gray). A shade ("dark brown") ranks the
+        candidates by the shaded word; the scene contradicts the word alone. When some
+        candidates store a colour name but no ``rgb``, a basic term selects those it names.
+        ``None`` (match stored names as written) when no candidate stores a colour."""
         b = self.b
-        name = _colour_word(word)
+        name = (colour_phrase(word) or (None, None))[0]
+        assert name is not None
         term = names_of(WORDS[name])[0]
         ids = b.value(step)
         known = self._colours(ids)
@@ -199,7 +263,7 @@ class Planner:
             if any(term in self._names(i) for i in ids):
                 return b.add(Op.FILTER_ATTRIBUTE, step, value=f"color={term}")
             return step
-        dist = {i: word_distance(word, rgb) for i, rgb in known.items()}
+        dist = {i: word_distance(name, rgb) for i, rgb in known.items()}
         if min(dist[i] - nearest_term_distance(known[i]) for i in known) > COLOUR_CONTRADICTED:
             closest = sorted(known, key=lambda i: dist[i])[:3]
             self.contradicted.append(word)
@@ -207,25 +271,44 @@ class Planner:
             b.note(f"the scene contradicts {word!r}: nothing here is {word} (closest: "
                    f"{closest_text})")  # fmt: skip
             return b.add(Op.DIFFERENCE, step, step)
-        best = min(dist.values())
-        keep = [i for i in known if dist[i] <= best + COLOUR_MARGIN]
+        keep = self._nearest(known, word)
         if len(keep) == len(ids):
             return step
-        values = sorted({rgb_to_hex(known[i]) for i in keep})
         b.note(f"{word}: {len(keep)} of {len(ids)} candidates by colour")
+        return self._keep_colours(step, [known[i] for i in keep])
+
+    def _lightness(self, step: int, word: str) -> int:
+        """A shade said alone ("the dark couch", "the lighter-coloured table"): the
+        candidates within :data:`LIGHTNESS_MARGIN` of the darkest or lightest stored
+        colour. Unchanged unless every candidate stores a colour and they differ."""
+        b = self.b
+        ids = b.value(step)
+        known = self._colours(ids)
+        if len(known) < 2 or len(known) < len(ids):
+            return step
+        keep = self._darkest(known, word)
+        if len(keep) == len(ids):
+            return step
+        b.note(f"{word}: {len(keep)} of {len(ids)} candidates by lightness")
+        return self._keep_colours(step, [known[i] for i in keep])
+
+    def _keep_colours(self, step: int, colours: list[tuple[float, float, float]]) -> int:
+        values = sorted({rgb_to_hex(c) for c in colours})
+        b = self.b
         return b.union([b.add(Op.FILTER_ATTRIBUTE, step, value=f"rgb={v}") for v in values])
 
     def closest_in_colour(self, step: int, words: tuple[str, ...]) -> int | None:
         """Of several candidates left for one, the one whose stored colour is nearest to the
         phrase's colour word (``None`` without a colour word or stored colours, or when two
         are equally near)."""
-        colour = next((w for w in words if is_color_word(w)), None)
+        colour = next((p for w in words if (p := colour_phrase(w)) and p[0] is not None), None)
         if colour is None:
             return None
         known = self._colours(self.b.value(step))
         if len(known) < 2:
             return None
-        dist = {i: word_distance(colour, rgb) for i, rgb in known.items()}
+        name, shade = colour
+        dist = {i: word_distance(name, rgb, shade) for i, rgb in known.items()}  # type: ignore[arg-type]
         first, second = sorted(dist, key=lambda i: dist[i])[:2]
         if dist[first] == dist[second]:
             return None

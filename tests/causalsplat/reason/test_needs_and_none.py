@@ -237,3 +237,44 @@ def test_a_basic_colour_word_keeps_a_candidate_whose_colour_another_term_names()
     answer = LEXICAL.answer("the gray chair next to the table", ctx)
     assert answer.entity_ids == (1,) and "1 of 3 candidates by colour" in answer.explanation
     assert LEXICAL.answer("the chair next to the table", ctx).entity_ids == (2,)
+
+
+def _three_couches() -> SceneContext:
+    """A dark brown, a light brown and a pale blue couch, the pale blue one the largest."""
+    doc = _coloured(("couch", 0, (60, 38, 22)), ("couch", 3, (181, 140, 100)),
+                    ("couch", 6, (150, 190, 215)))  # fmt: skip
+    doc["objects"][2]["size"] = [1.6, 1.0, 0.8]
+    return SceneContext(objects_to_scene_graph(parse_objects(doc)))
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [("the dark brown couch", (1,)), ("the light brown couch", (2,)),
+     ("the pale blue couch", (3,)), ("the dark couch", (1,)),
+     ("the dark-coloured couch", (1,)), ("this couch is dark", (1,)),
+     ("the light colored couch", (3,)), ("the couch", (3,))],
+)  # fmt: skip
+def test_shades_make_a_colour_lighter_or_darker_and_alone_name_its_lightness(
+    text: str, expected: tuple[int, ...]
+) -> None:
+    answer = LEXICAL.answer(text, _three_couches())
+    assert answer.entity_ids == expected, answer.explanation
+
+
+def test_the_light_is_still_a_thing() -> None:
+    # "light" before a verb is the lamp, not a shade of the next word
+    doc = _coloured(("light", 0, (240, 240, 230)), ("couch", 3, (60, 38, 22)))
+    ctx = SceneContext(objects_to_scene_graph(parse_objects(doc)))
+    assert LEXICAL.parse("the light is next to the couch", ctx).target.categories == ("light",)
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [("the brown couch, not the light one", (1,)),
+     ("all the couches that are not blue", (1, 2)),
+     ("the brown couch not the dark brown couch", (2,)),
+     ("the couch that is not green", (3,))],  # the word drops none: nothing said of them
+)  # fmt: skip
+def test_a_negated_colour_drops_the_one_it_names(text: str, expected: tuple[int, ...]) -> None:
+    answer = LEXICAL.answer(text, _three_couches())
+    assert answer.entity_ids == expected, answer.explanation
