@@ -35,7 +35,8 @@ CUE_PATTERNS: tuple[tuple[str, str], ...] = (
                r"(?:on|at|to) the back(?: side)? of"),
     ("between", r"(?:(?:directly|right|just) )?(?:in )?between|"
                 r"in the (?:middle|center|centre) of"),
-    ("farthest", r"(?:the )?(?:(?:farthest|furthest|farther|further|far)(?: away)?|away) from"),
+    ("farthest", r"(?:the )?(?:(?:farthest|furthest|farther|further|far)(?: away)?|away) from|"
+                 r"(?:the )?(?:farthest|furthest)(?= (?!left |right |to )(?:\S+ ){1,3}from )"),
     ("closest", r"(?:the )?(?:closest|nearest|closer|nearer)(?: to)?|"
                 r"(?:(?:directly|right|just) )?(?:across from|opposite(?: to| from| of)?)"),
     ("near", r"(?:(?:right|directly|just|located|placed|sitting|standing) )?"

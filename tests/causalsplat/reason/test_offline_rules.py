@@ -29,6 +29,9 @@ def ask(ctx: SceneContext, text: str) -> tuple[int, ...]:
         ("choose the chair that is farthest from the lamp", (5,)),
         ("find the chair that is near the door", (5,)),
         ("select the chair that is far away from the couch", (7,)),
+        # the superlative before its noun, the anchor after it
+        ("the closest chair to the lamp", (6,)),
+        ("the furthest chair from the lamp", (5,)),
         # support, both directions, and "with X on top"
         ("the cup that is on top of the box", (4,)),
         ("the cup lying on the table", (2,)),
