@@ -172,19 +172,30 @@ class Planner:
         b = self.b
         phrase = colour_phrase(word)
         if phrase is not None:
-            name = phrase[0]
-            colour = self._colour(step, word) if name is not None else self._lightness(step, word)
+            name, shade = phrase
+            if name is None:
+                colour: int | None = self._lightness(step, word, shade)
+            else:
+                colour = self._colour(step, word, name, shade)
             if colour is not None:
                 return colour
-        wanted = normalise_text(word)
-        pairs = [(k, v) for k, v in self.ctx.attribute_pairs() if normalise_text(v) == wanted]
-        if not pairs:
+        filtered = self._stored(step, word)
+        if filtered is None:
             return step
-        filtered = b.union([b.add(Op.FILTER_ATTRIBUTE, step, value=f"{k}={v}") for k, v in pairs])
         if b.size(filtered) == 0:
             b.note(f"nothing here is {word}; the word was not used")
             return step
         return filtered
+
+    def _stored(self, step: int, word: str) -> int | None:
+        """Those of ``step`` storing an attribute value spelt as ``word`` (``None`` when
+        no entity of the scene stores one)."""
+        wanted = normalise_text(word)
+        pairs = [(k, v) for k, v in self.ctx.attribute_pairs() if normalise_text(v) == wanted]
+        if not pairs:
+            return None
+        b = self.b
+        return b.union([b.add(Op.FILTER_ATTRIBUTE, step, value=f"{k}={v}") for k, v in pairs])
 
     def _not_attribute(self, step: int, word: str) -> int:
         """The candidates without an attribute ("not the white one"): the one a colour word
@@ -194,52 +205,43 @@ class Planner:
         phrase = colour_phrase(word)
         ids = b.value(step)
         known = self._colours(ids)
-        with_it: int | None = None
         if phrase is not None and known:
             if len(known) < len(ids):
                 return step
-            name, _ = phrase
+            name, shade = phrase
             if name is not None:
-                keep = self._nearest(known, word, margin=0.0)
+                keep = self._nearest(known, name, shade, margin=0.0)
             else:
-                keep = self._darkest(known, word, margin=0.0)
-            with_it = self._keep_colours(step, [known[i] for i in keep])
+                keep = self._darkest(known, shade, margin=0.0)
+            with_it: int | None = self._keep_colours(step, [known[i] for i in keep])
         else:
-            wanted = normalise_text(word)
-            pairs = [(k, v) for k, v in self.ctx.attribute_pairs() if normalise_text(v) == wanted]
-            if pairs:
-                with_it = b.union(
-                    [b.add(Op.FILTER_ATTRIBUTE, step, value=f"{k}={v}") for k, v in pairs]
-                )
+            with_it = self._stored(step, word)
         if with_it is None or b.size(with_it) in (0, b.size(step)):
             return step
         b.note(f"not {word}: {b.size(step) - b.size(with_it)} of {b.size(step)} candidates")
         return b.add(Op.DIFFERENCE, step, with_it)
 
     def _nearest(
-        self, known: dict[int, tuple[float, float, float]], word: str,
+        self, known: dict[int, tuple[float, float, float]], name: str, shade: str | None,
         margin: float = COLOUR_MARGIN,
     ) -> list[int]:  # fmt: skip
-        """Those of ``known`` within ``margin`` of the nearest to a colour phrase."""
-        name, shade = colour_phrase(word) or (None, None)
-        assert name is not None
+        """Those of ``known`` within ``margin`` of the nearest to a colour word, shaded."""
         dist = {i: word_distance(name, rgb, shade) for i, rgb in known.items()}
         best = min(dist.values())
         return [i for i in known if dist[i] <= best + margin]
 
     def _darkest(
-        self, known: dict[int, tuple[float, float, float]], word: str,
+        self, known: dict[int, tuple[float, float, float]], shade: str | None,
         margin: float = LIGHTNESS_MARGIN,
     ) -> list[int]:  # fmt: skip
         """Those of ``known`` within ``margin`` (of L*) of the darkest, or for a light shade
         the lightest."""
-        _, shade = colour_phrase(word) or (None, None)
         sign = 1.0 if shade == "dark" else -1.0
         level = {i: sign * lightness(rgb) for i, rgb in known.items()}
         best = min(level.values())
         return [i for i in known if level[i] <= best + margin]
 
-    def _colour(self, step: int, word: str) -> int | None:
+    def _colour(self, step: int, word: str, name: str, shade: str | None) -> int | None:
         """A colour word, by perceptual distance to the candidates' stored colours
         (``rgb``; :mod:`causalsplat.colors`). When even the nearest candidate is farther
         than :data:`COLOUR_CONTRADICTED` beyond its own colour's name, the scene
@@ -251,8 +253,6 @@ class Planner:
         candidates store a colour name but no ``rgb``, a basic term selects those it names.
         ``None`` (match stored names as written) when no candidate stores a colour."""
         b = self.b
-        name = (colour_phrase(word) or (None, None))[0]
-        assert name is not None
         term = names_of(WORDS[name])[0]
         ids = b.value(step)
         known = self._colours(ids)
@@ -271,13 +271,13 @@ class Planner:
             b.note(f"the scene contradicts {word!r}: nothing here is {word} (closest: "
                    f"{closest_text})")  # fmt: skip
             return b.add(Op.DIFFERENCE, step, step)
-        keep = self._nearest(known, word)
+        keep = self._nearest(known, name, shade)
         if len(keep) == len(ids):
             return step
         b.note(f"{word}: {len(keep)} of {len(ids)} candidates by colour")
         return self._keep_colours(step, [known[i] for i in keep])
 
-    def _lightness(self, step: int, word: str) -> int:
+    def _lightness(self, step: int, word: str, shade: str | None) -> int:
         """A shade said alone ("the dark couch", "the lighter-coloured table"): the
         candidates within :data:`LIGHTNESS_MARGIN` of the darkest or lightest stored
         colour. Unchanged unless every candidate stores a colour and they differ."""
@@ -286,7 +286,7 @@ class Planner:
         known = self._colours(ids)
         if len(known) < 2 or len(known) < len(ids):
             return step
-        keep = self._darkest(known, word)
+        keep = self._darkest(known, shade)
         if len(keep) == len(ids):
             return step
         b.note(f"{word}: {len(keep)} of {len(ids)} candidates by lightness")
@@ -308,7 +308,8 @@ class Planner:
         if len(known) < 2:
             return None
         name, shade = colour
-        dist = {i: word_distance(name, rgb, shade) for i, rgb in known.items()}  # type: ignore[arg-type]
+        assert name is not None
+        dist = {i: word_distance(name, rgb, shade) for i, rgb in known.items()}
         first, second = sorted(dist, key=lambda i: dist[i])[:2]
         if dist[first] == dist[second]:
             return None
