@@ -159,6 +159,25 @@ def test_colour_by_perceptual_distance_from_rgb(tmp_path: Path) -> None:
     assert stored == {"rgb": "#142882", "color": "blue"}
 
 
+@pytest.mark.parametrize(
+    ("rgb", "word", "other"),
+    [((0, 255, 0), "white", "green"), ((255, 0, 0), "yellow", "red"),
+     ((255, 0, 255), "black", "purple")],
+)  # fmt: skip
+def test_a_vivid_colour_contradicts_a_word_far_from_it(
+    rgb: tuple[int, int, int], word: str, other: str
+) -> None:
+    # a saturated colour is far from every colour name, its own included: the scene
+    # contradicts a word by the word's own distance, not by how much farther it is than
+    # the colour's nearest name (which let "the white chair" pick a vivid green one)
+    doc = _coloured(("chair", 0, rgb), ("table", 2, rgb))
+    ctx = SceneContext(objects_to_scene_graph(parse_objects(doc)))
+    answer = LEXICAL.answer(f"the {word} chair", ctx)
+    assert answer.entity_ids == () and answer.nothing_fits
+    assert f"contradicts {word!r}" in answer.explanation
+    assert LEXICAL.answer(f"the {other} chair", ctx).entity_ids == (1,)
+
+
 @pytest.mark.shared_data
 def test_needs_on_scene0000(reasoner: OfflineReasoner) -> None:
     from causalsplat.bench._reasoning_referit import objects_document
