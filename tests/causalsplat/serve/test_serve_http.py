@@ -82,6 +82,13 @@ def test_a_chunked_body_is_read_and_an_oversized_one_refused(patient_server: Ser
     conn.close()
 
 
+def _closed_by_server(sock: socket.socket) -> bool:
+    try:
+        return sock.recv(4096) == b""
+    except ConnectionResetError:
+        return True
+
+
 def test_silent_and_dribbling_connections_are_cut_off(quick_server: Server) -> None:
     soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
     # both ends of every connection live in this process
@@ -97,10 +104,12 @@ def test_silent_and_dribbling_connections_are_cut_off(quick_server: Server) -> N
         conn.close()
         time.sleep(0.5)
         dribbler.sendall(b"X-Slow: 1\r\n")  # more bytes do not move the deadline
-        # after the deadline the server has closed every one of them (EOF)
+        # after the deadline the server has closed every one of them: EOF, or a reset
+        # where the close found bytes it had not read (the dribbler's last header line,
+        # when the deadline came before the server read it)
         for sock in [dribbler, *silent]:
             sock.settimeout(30)
-            assert sock.recv(4096) == b""
+            assert _closed_by_server(sock)
     finally:
         for sock in [*silent, dribbler]:
             sock.close()
