@@ -178,9 +178,8 @@ FALL_TRIGGERS = re.compile(
     r"\b(?:fall\w*|fell|drop\w*|collapse\w*|tumble\w*|topple\w*)\b|"
     # a question of what reaches the floor: "what hits the floor?", "which things end up on
     # the ground?", "what comes crashing down to the floor?"
-    r"\b(?:what|which)\b.*\b(?:hit|hits|hitting|lands?|landed|landing|ends? up|ended up|"
-    r"crash\w*|comes? down|came down|goes down|go down|went down|comes? crashing down|"
-    r"came crashing down)(?: on| onto| to| into| down to| on to)? (?:the )?(?:floor|ground)\b"
+    r"\b(?:what|which)\b.*\b(?:hit\w*|land\w*|end\w* up|crash\w*|(?:come|comes|came|go|goes|"
+    r"went) down)(?: on| onto| to| into| down to| on to)? (?:the )?(?:floor|ground)\b"
 )
 CLOSURE_TRIGGERS = re.compile(r"\b(?:stacked|everything|all (?:the )?things|piled)\b")
 
