@@ -174,7 +174,13 @@ REMOVAL_TRIGGERS = re.compile(
     r"gone|disappear\w*|was not there|were not there|is not there|are not there|"
     r"(?:got|get|gets|is|are|were|was) moved|delet\w*|knocked over)\b"
 )
-FALL_TRIGGERS = re.compile(r"\b(?:fall\w*|fell|drop\w*|collapse\w*|tumble\w*|topple\w*)\b")
+FALL_TRIGGERS = re.compile(
+    r"\b(?:fall\w*|fell|drop\w*|collapse\w*|tumble\w*|topple\w*)\b|"
+    # a question of what reaches the floor: "what hits the floor?", "which things end up on
+    # the ground?", "what comes crashing down to the floor?"
+    r"\b(?:what|which)\b.*\b(?:hit\w*|land\w*|end\w* up|crash\w*|(?:come|comes|came|go|goes|"
+    r"went) down)(?: on| onto| to| into| down to| on to)? (?:the )?(?:floor|ground)\b"
+)
 CLOSURE_TRIGGERS = re.compile(r"\b(?:stacked|everything|all (?:the )?things|piled)\b")
 
 #: Superlatives and size adjectives: word -> (metric, argmax or argmin).

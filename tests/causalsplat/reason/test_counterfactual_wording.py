@@ -53,6 +53,35 @@ def test_removing_the_table_in_any_wording(room: SceneContext, text: str) -> Non
 
 @pytest.mark.parametrize(
     "text",
+    ["we haul the table away; what ends up on the floor?",
+     "the table is hauled off, what hits the floor?",
+     "take the table out - what lands on the ground?",
+     "which things would land on the floor if the table were removed?",
+     "what comes crashing down to the floor when the table collapses?"],
+)  # fmt: skip
+def test_a_question_of_what_reaches_the_floor_asks_what_falls(
+    room: SceneContext, text: str
+) -> None:
+    # removal said first as a statement of its own (no "if"), and a question of what hits,
+    # lands on or ends up on the floor: what falls
+    answer = REASONER.answer(text, room)
+    assert answer.program.query_type.value == "counterfactual"
+    assert set(answer.entity_ids) == {2, 3, 4}, answer.explanation
+
+
+@pytest.mark.parametrize(
+    "text",
+    ["what is on the floor?", "the box that ended up on the floor",
+     "which cup is closest to the ground?"],
+)  # fmt: skip
+def test_the_floor_in_a_plain_question_or_description_is_no_counterfactual(
+    room: SceneContext, text: str
+) -> None:
+    assert parse_instruction(text, REASONER.index(room)).kind != "counterfactual"
+
+
+@pytest.mark.parametrize(
+    "text",
     ["what falls if the box is removed?", "if the box gives way, what drops?",
      "what would fall if someone took the box away?"],
 )  # fmt: skip
