@@ -135,13 +135,35 @@ def patient_verb(tokens: tuple[str, ...], lexicon: Lexicon) -> str | None:
     return None
 
 
-def affords_verb(verb: str, facts: ObjectFacts | None, lexicon: Lexicon) -> bool:
+def affords_verb(
+    verb: str,
+    facts: ObjectFacts | None,
+    lexicon: Lexicon,
+    particles: frozenset[str] | None = None,
+) -> bool:
     """Whether people do ``verb`` (or a synonym of it) to the object: an ``affords`` phrase
-    opens with it."""
+    opens with it. With ``particles`` (those the need says), a phrase with other particles
+    only is another act: shoes are put on, and "put my shoes in" puts them somewhere; a
+    need without particles says nothing of them ("drink a cup of coffee" drinks from it).
+
+    >>> from causalsplat.reason.lexicon import load_lexicon
+    >>> from causalsplat.reason.knowledge import load_knowledge
+    >>> lex, shoe = load_lexicon(), load_knowledge().get("shoe")
+    >>> affords_verb("put", shoe, lex), affords_verb("put", shoe, lex, frozenset({"on"}))
+    (True, True)
+    >>> affords_verb("put", shoe, lex, frozenset({"in"}))
+    False
+    >>> affords_verb("put", shoe, lex, frozenset())
+    True
+    """
     if facts is None:
         return False
-    return any(_relatedness(verb, head, lexicon) >= SYNONYM
-               for head, _ in _headed(facts.affords, lexicon))  # fmt: skip
+    return any(
+        _relatedness(verb, head, lexicon) >= SYNONYM
+        and (not particles or not (said := PARTICLES.intersection(words[1:]))
+             or bool(said & particles))
+        for head, words in _headed(facts.affords, lexicon)
+    )  # fmt: skip
 
 
 #: Objects that stand for anything ("store items"): they agree with every object.

@@ -375,7 +375,8 @@ class Grounder:
         # a category is scored without the words that name it as what the need acts on:
         # "somewhere to put my cup down" does not ask for a cup; unless people do what the
         # need asks to that very thing ("open the window", "play the guitar")
-        itself = self._does_it_to_itself(acted, verbs)
+        said = PARTICLES.intersection(purpose_tokens(ins))
+        itself = self._does_it_to_itself(acted, verbs, said)
         own: dict[str, float] = {}
         for c, (a, b, _) in acted.items():
             if c in itself:
@@ -571,10 +572,12 @@ class Grounder:
                          reference=reference)  # fmt: skip
 
     def _does_it_to_itself(
-        self, acted: dict[str, tuple[int, int, float]], verbs: NeedVerbs
+        self, acted: dict[str, tuple[int, int, float]], verbs: NeedVerbs, said: frozenset[str]
     ) -> frozenset[str]:
         """The categories a need acts on that people do its verb to, by the knowledge
-        table (an ``affords`` phrase opens with it: a window is opened, a guitar played),
+        table (an ``affords`` phrase opens with it, with no particle the need does not
+        say, ``said``: a window is opened, a guitar played, shoes put on but not "put my
+        shoes in"),
         when nothing else here is for doing it to them (no other category's facts do the
         verb to what the need names: a towel is hung, but on the towel rack): the need is
         about them, not merely mentioning them."""
@@ -590,7 +593,7 @@ class Grounder:
             return frozenset()
         return frozenset(
             c for c in acted
-            if any(affords_verb(v, facts(c), self.lexicon) for v in verbs.verbs)
+            if any(affords_verb(v, facts(c), self.lexicon, said) for v in verbs.verbs)
         )  # fmt: skip
 
     def _doers_first(self, ranked: list[Candidate], verbs: NeedVerbs) -> list[Candidate]:

@@ -112,6 +112,34 @@ def test_nothing_to_lie_on_is_nothing_fits(reasoner: OfflineReasoner) -> None:
 
 
 @pytest.mark.parametrize(
+    ("text", "answer"),
+    [
+        # the particle the phrase has ("put on" of shoes), said before or after the
+        # object: the act is done to the thing itself
+        ("I want to put my shoes on", {"shoes"}),
+        ("I want to put on my shoes", {"shoes"}),
+        # a need without particles says nothing of them: a cup is what coffee is drunk from
+        ("I would like to drink a cup of coffee", {"cup"}),
+        # another particle is another act: shoes put *in* something go somewhere else,
+        # and a room with no shoe rack has nothing for it, the cabinet coming closest
+        ("is there anything to put my shoes in?", set()),
+        ("I need a place to put my shoes into", set()),
+    ],
+)
+def test_a_particle_the_need_says_tells_which_act_it_asks(
+    reasoner: OfflineReasoner, text: str, answer: set[str]
+) -> None:
+    room = _room("shoes", "cabinet", "cup", "table", "lamp", "plant")
+    got = reasoner.answer(text, room)
+    assert set(got.categories) == answer, got.explanation
+    if not answer:
+        assert got.nothing_fits, got.explanation
+        assert "(closest: cabinet" in got.explanation, got.explanation
+        with_rack = reasoner.answer(text, _room("shoes", "shoe rack", "cabinet", "cup"))
+        assert set(with_rack.categories) == {"shoe rack"}, with_rack.explanation
+
+
+@pytest.mark.parametrize(
     ("need", "phrase", "verdict"),
     [
         ("how can i wash my hands", "dry hands", False),  # another verb
