@@ -96,7 +96,7 @@ def need_verbs(tokens: tuple[str, ...], lexicon: Lexicon) -> NeedVerbs:
                 base = lexicon.lemma(w, "v")
                 if base not in LIGHT_VERBS and lexicon.verb_senses(base):
                     verb = base
-        elif w not in ACTION_STOPWORDS and w not in PARTICLES:
+        elif w not in ACTION_STOPWORDS and w not in PARTICLES and w not in DETERMINERS:
             objects.append(lexicon.lemma(w, "n"))
         prev = w
     particle = words[-1] if words and words[-1] in PARTICLES else None
