@@ -182,6 +182,75 @@ def _without(tokens: tuple[str, ...]) -> tuple[tuple[str, ...], tuple[str, ...]]
     return tokens[i + 1 : end], tuple(t for k, t in enumerate(question) if t != "," or k > 0)
 
 
+#: Words of a question that asks what follows a removal ("what happens?", "what is
+#: affected?", "what is left standing?", "what stays up?").
+_FOLLOWS = frozenset({"happen", "happens", "happened", "affect", "affected", "affects",
+                      "left", "remain", "remains", "stay", "stays", "standing",
+                      "support", "supported", "unsupported"})  # fmt: skip
+#: Verbs of motion that fall with "down" ("what comes down?", "what goes down with it?").
+_DOWN = frozenset(
+    {
+        "come",
+        "comes",
+        "came",
+        "coming",
+        "go",
+        "goes",
+        "went",
+        "going",
+        "crash",
+        "crashes",
+        "crashed",
+        "crashing",
+        "bring",
+        "brings",
+        "brought",
+    }
+)
+
+
+def moves_away(word: str) -> bool:
+    """Whether a word is a verb of removal, or of moving that removes with a particle
+    ("remove", "take", "hauled")."""
+    return lemma(word) in _REMOVE_ALONE or lemma(word) in _MOVE
+
+
+def asks_what_follows(question: tuple[str, ...]) -> bool:
+    """Whether a question asks what falls or what happens after a removal.
+
+    >>> asks_what_follows(tuple("what comes down with it ?".split()))
+    True
+    >>> asks_what_follows(tuple("which things are affected ?".split()))
+    True
+    >>> asks_what_follows(tuple("which one is it ?".split()))
+    False
+    """
+    return any(
+        t in _FOLLOWS or lemma(t) in _FALLING or (t in _DOWN and nxt == "down")
+        for t, nxt in zip(question, (*question[1:], ""), strict=True)
+    )
+
+
+def _stated(tokens: tuple[str, ...]) -> tuple[tuple[str, ...], tuple[str, ...]] | None:
+    """``(what is removed, the question)`` for a removal stated first, then a question of
+    what follows, with no word of condition ("the shelf gives way, what comes down with
+    it?", "we haul the dresser away what drops"): the statement is the condition."""
+    for k in range(1, len(tokens)):
+        if tokens[k] not in _QUESTION_WORDS:
+            continue
+        statement = tuple(t for t in tokens[:k] if t != ",")
+        if not statement or not removes(statement):
+            continue
+        question = tokens[k:]
+        if not asks_what_follows(question):
+            return None
+        kept = tuple(
+            t for t in statement if t not in AGENTS and t not in _AUXILIARIES and not _verb(t)
+        )
+        return (kept, question) if kept else None
+    return None
+
+
 def split_condition(
     tokens: tuple[str, ...],
 ) -> tuple[tuple[str, ...], tuple[str, ...]] | None:
@@ -211,4 +280,4 @@ def split_condition(
             t for t in clause if t not in AGENTS and t not in _AUXILIARIES and not _verb(t)
         )
         return kept, question
-    return _without(tokens)
+    return _without(tokens) or _stated(tokens)

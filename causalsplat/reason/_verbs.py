@@ -96,7 +96,7 @@ def need_verbs(tokens: tuple[str, ...], lexicon: Lexicon) -> NeedVerbs:
                 base = lexicon.lemma(w, "v")
                 if base not in LIGHT_VERBS and lexicon.verb_senses(base):
                     verb = base
-        elif w not in ACTION_STOPWORDS and w not in PARTICLES:
+        elif w not in ACTION_STOPWORDS and w not in PARTICLES and w not in DETERMINERS:
             objects.append(lexicon.lemma(w, "n"))
         prev = w
     particle = words[-1] if words and words[-1] in PARTICLES else None
@@ -160,10 +160,15 @@ def affords_verb(
         return False
     return any(
         _relatedness(verb, head, lexicon) >= SYNONYM
-        and (not particles or not (said := PARTICLES.intersection(words[1:]))
-             or bool(said & particles))
+        and not (particles and _other_particles(words, particles))
         for head, words in _headed(facts.affords, lexicon)
-    )  # fmt: skip
+    )
+
+
+def _other_particles(words: list[str], said: frozenset[str]) -> bool:
+    """Whether a phrase (its words, verb first) carries particles and none the need says."""
+    tail = PARTICLES.intersection(words[1:])
+    return bool(tail) and not tail & said
 
 
 #: Objects that stand for anything ("store items"): they agree with every object.
@@ -258,10 +263,8 @@ def verb_fit(need: NeedVerbs, facts: ObjectFacts | None, lexicon: Lexicon) -> fl
         rel = _verb_relatedness(need, head, lexicon)
         if rel <= 0.0:
             continue
-        if need.particle is not None:
-            tail = [w for w in words[1:] if w in PARTICLES]
-            if tail and need.particle not in tail:
-                rel *= OTHER_PARTICLE
+        if need.particle is not None and _other_particles(words, frozenset({need.particle})):
+            rel *= OTHER_PARTICLE
         best = max(best, rel)
     if best <= 0.0:
         return 0.0

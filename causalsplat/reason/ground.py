@@ -371,11 +371,12 @@ class Grounder:
             # ("warm up the soup" as "I want to warm up the soup"), as needs are said
             query = f"{COMMAND_AS_WANT} {query}"
         acted = self.acted_on(ins)
-        verbs = need_verbs(purpose_tokens(ins), self.lexicon)
+        purpose = purpose_tokens(ins)
+        verbs = need_verbs(purpose, self.lexicon)
         # a category is scored without the words that name it as what the need acts on:
         # "somewhere to put my cup down" does not ask for a cup; unless people do what the
         # need asks to that very thing ("open the window", "play the guitar")
-        said = PARTICLES.intersection(purpose_tokens(ins))
+        said = PARTICLES.intersection(purpose)
         itself = self._does_it_to_itself(acted, verbs, said)
         own: dict[str, float] = {}
         for c, (a, b, _) in acted.items():
@@ -577,8 +578,7 @@ class Grounder:
         """The categories a need acts on that people do its verb to, by the knowledge
         table (an ``affords`` phrase opens with it, with no particle the need does not
         say, ``said``: a window is opened, a guitar played, shoes put on but not "put my
-        shoes in"),
-        when nothing else here is for doing it to them (no other category's facts do the
+        shoes in"), when nothing else here is for doing it to them (no other category's facts do the
         verb to what the need names: a towel is hung, but on the towel rack): the need is
         about them, not merely mentioning them."""
         if not verbs.verbs or not acted:

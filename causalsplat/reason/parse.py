@@ -14,7 +14,7 @@ import itertools
 from dataclasses import dataclass, field, replace
 
 from causalsplat.reason import _grammar as g
-from causalsplat.reason._conditions import split_condition
+from causalsplat.reason._conditions import asks_what_follows, moves_away, split_condition
 from causalsplat.reason._items import Item, Modifier, read_items
 from causalsplat.reason._mentions import CategoryIndex, Mention
 from causalsplat.reason._text import tokenize
@@ -226,11 +226,10 @@ def _asks_consequence(tokens: tuple[str, ...]) -> bool:
     """Whether an instruction that removes something without a condition clause asks
     what follows ("remove the bed: what happens?", "take away the table, what is left
     standing?"); a description that only says something was pulled out ("the bookshelf
-    that is pulled out") asks nothing of the kind."""
-    return "?" in tokens or any(
-        a == "what" and b in ("happens", "happen", "would", "will", "is", "stays", "remains")
-        for a, b in itertools.pairwise(tokens)
-    )
+    that is pulled out", "the chair pulled out from the desk. which one is it?") asks
+    nothing of the kind, unless it opens by telling to remove ("take away the table, what
+    is on the floor?")."""
+    return "?" in tokens and (asks_what_follows(tokens) or moves_away(tokens[0]))
 
 
 def _unrestricted(target: NounPhrase) -> bool:

@@ -41,6 +41,12 @@ WORDINGS = [
     "what loses its support when the table goes?",  # going, said of a thing, is leaving
     "what drops without the table?",  # "without", in a question of what falls
     "what is left hanging without the table?",
+    # the removal stated first, then the question, with no word of condition
+    "the table gives way; what comes down with it?",
+    "someone rips the table out. which things are affected?",
+    "the table collapses - what goes down with it?",
+    # told to remove it, then asked anything: what follows the removal
+    "take away the table, what is on the floor?",
 ]
 
 
@@ -99,7 +105,10 @@ def test_everything_stacked_on_it_in_the_condition_last_order(room: SceneContext
     "text",
     ["what is on the table if i look from the door?", "when you walk in, the chair on the left",
      "the cup that is on the table", "if you face the couch, the chair on the right",
-     "take the cup out of the box"],
+     "take the cup out of the box",
+     # a description that says something was pulled out, then a question of which
+     "the box pulled out from the table. which one is it?",
+     "the table is pulled out, what is on it?"],
 )  # fmt: skip
 def test_conditions_that_remove_nothing_are_not_counterfactuals(
     room: SceneContext, text: str

@@ -43,6 +43,9 @@ def _verbs(text: str) -> tuple[tuple[str, ...], str | None, tuple[str, ...]]:
         ("how can i wash my hands", ("wash",), None, ("hand",)),
         ("i want to lie down", ("lie",), None, ()),
         ("i am tired", (), None, ()),
+        # a demonstrative is no object ("this" is not the noun "thi")
+        ("where should i throw this banana peel", ("throw",), None, ("banana", "peel")),
+        ("i want to wash these towels", ("wash",), None, ("towel",)),
     ],
 )
 def test_the_verb_of_a_need(
