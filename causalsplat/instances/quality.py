@@ -26,7 +26,14 @@ Panoptic quality (Kirillov et al., 2019), class-agnostic: a ground-truth and a p
 instance *match* when their IoU exceeds 0.5 (such a match is unique on both sides);
 ``SQ`` is the mean IoU of the matches, ``RQ = TP / (TP + FP / 2 + FN / 2)`` and
 ``PQ = SQ * RQ``, where TP counts matches, FP unmatched predicted instances (*extra*) and
-FN unmatched ground-truth ones (*missed*). How objects fall apart is counted beside it: a
+FN unmatched ground-truth ones (*missed*). Elements without a ground-truth label are
+*void*, as in that paper: with ``void="ignored"`` (the default) they are taken out of each
+predicted instance before its IoU for the match is computed, and a predicted instance more
+than half void is no false positive (a reconstruction holds surfaces nobody annotated:
+ScanNet leaves 5 % of scene0000_00's Gaussians unlabelled, and an entity that takes the
+unannotated floor behind a nightstand is no worse a nightstand for it). ``void="counted"``
+keeps them in the union, as the mean best IoU and AP do (ScanNet's instance benchmark
+counts them there too). How objects fall apart is counted beside it: a
 ground-truth instance is *split* when two or more predicted instances each hold at least
 :data:`PART` of it, and a predicted instance *merged* when it holds at least
 :data:`PART` of each of two or more ground-truth instances.
@@ -41,13 +48,24 @@ import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, replace
 from numbers import Real
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 import scipy.sparse as sp
 from numpy.typing import ArrayLike
 
-__all__ = ["PANOPTIC_MIN_SIZE", "PART", "InstanceQuality", "instance_quality", "scene_quality"]
+__all__ = [
+    "PANOPTIC_MIN_SIZE",
+    "PART",
+    "InstanceQuality",
+    "Void",
+    "instance_quality",
+    "scene_quality",
+]
+
+#: How the panoptic figures treat elements without a ground-truth label (module docstring).
+Void = Literal["ignored", "counted"]
+VOIDS: tuple[Void, ...] = ("ignored", "counted")
 
 #: The share of a ground-truth instance a predicted one must hold to count as a part of it
 #: (for ``split`` and ``merged``).
@@ -92,6 +110,8 @@ class InstanceQuality:
     """Predicted instances without a match (FP)."""
     panoptic_min_size: float = 1
     """The ``min_size`` of the ground-truth instances the panoptic figures count."""
+    void: Void = "ignored"
+    """How the panoptic figures treated unlabelled elements (module docstring)."""
 
     def to_json(self) -> dict[str, Any]:
         """A JSON-ready dict: string keys for the per-instance maps, nan as ``None``."""
@@ -113,6 +133,7 @@ class InstanceQuality:
             "missed": self.missed,
             "extra": self.extra,
             "panoptic_min_size": self.panoptic_min_size,
+            "void": self.void,
             "best_iou": {str(g): num(v) for g, v in self.best_iou.items()},
             "matched": {str(g): p for g, p in self.matched.items()},
         }
@@ -177,6 +198,7 @@ def instance_quality(
     min_size: int = 1,
     ignore: Iterable[int] = (),
     weights: ArrayLike | None = None,
+    void: Void = "ignored",
 ) -> InstanceQuality:
     """Mean best IoU, AP50 and AP25 of predicted instances against ground-truth ones.
 
@@ -184,11 +206,14 @@ def instance_quality(
     unlabelled). ``scores`` maps every evaluated predicted id to its confidence (default:
     the predicted instance's size, i.e. count or weight). ``min_size`` and ``ignore`` leave
     ground-truth instances out (see the module docstring), ``weights`` (one non-negative
-    finite value per element) turns every count into a weighted sum.
+    finite value per element) turns every count into a weighted sum. ``void``: how the
+    panoptic figures treat elements without a ground-truth label (module docstring).
 
     Raises ``ValueError`` on mismatched shapes, non-integer labels, bad weights, a negative
-    ``min_size``, or a missing or non-finite score.
+    ``min_size``, an unknown ``void``, or a missing or non-finite score.
     """
+    if void not in VOIDS:
+        raise ValueError(f"void must be one of {', '.join(VOIDS)}, got {void!r}")
     pred_arr, gt_arr = np.asarray(pred), np.asarray(gt)
     if pred_arr.shape != gt_arr.shape:
         raise ValueError(
@@ -292,12 +317,21 @@ def instance_quality(
                     break
         return _average_precision(tp, n_gt)
 
-    # panoptic quality: matches at IoU > 0.5 are one-to-one
-    hit = iou > 0.5
+    # panoptic quality: matches at IoU > 0.5 are one-to-one; void (unlabelled GT) elements
+    # leave the predicted instances first, and one more than half void is no false positive
+    pq_iou, pq_pred = iou, n_pred
+    if void == "ignored":
+        on_void = p_lab & ~g_lab
+        p_void = np.bincount(p_idx[on_void], weights=None if w is None else w[on_void],
+                             minlength=n_p)  # fmt: skip
+        pq_union = g_size[rows] + (p_size[cols] - p_void[cols]) - inter
+        pq_iou = np.where(pq_union > 0, inter / np.where(pq_union > 0, pq_union, 1), 0.0)
+        pq_pred = int(np.count_nonzero(keep_p & ~(p_void > 0.5 * p_size)))
+    hit = pq_iou > 0.5
     tp = int(hit.sum())
-    fn, fp = n_gt - tp, n_pred - tp
+    fn, fp = n_gt - tp, pq_pred - tp
     denom = tp + 0.5 * fp + 0.5 * fn
-    sq = math.fsum(iou[hit].tolist()) / tp if tp else math.nan
+    sq = math.fsum(pq_iou[hit].tolist()) / tp if tp else math.nan
     rq = tp / denom if denom else math.nan
     pq = (0.0 if not tp else sq * rq) if denom else math.nan
     part = inter >= PART * g_size[rows]
@@ -321,15 +355,21 @@ def instance_quality(
         missed=fn,
         extra=fp,
         panoptic_min_size=min_size,
+        void=void,
     )
 
 
 def scene_quality(
-    pred: ArrayLike, gt: ArrayLike, *, panoptic_min_size: int = PANOPTIC_MIN_SIZE
+    pred: ArrayLike,
+    gt: ArrayLike,
+    *,
+    panoptic_min_size: int = PANOPTIC_MIN_SIZE,
+    void: Void = "ignored",
 ) -> InstanceQuality:
     """A built scene's quality against its GT instances, as ``build`` reports it: mean best
     IoU and AP over every GT instance, the panoptic figures (PQ, SQ, RQ, split, merged,
-    missed, extra) over those of at least ``panoptic_min_size`` elements.
+    missed, extra) over those of at least ``panoptic_min_size`` elements, with ``void``
+    (unlabelled) elements ignored or counted (module docstring).
 
     >>> import numpy as np
     >>> gt = np.repeat([0, 1, 2], [100, 100, 3])
@@ -338,6 +378,7 @@ def scene_quality(
     (3, 1.0, 0)
     """
     q = instance_quality(pred, gt)
-    p = instance_quality(pred, gt, min_size=panoptic_min_size)
+    p = instance_quality(pred, gt, min_size=panoptic_min_size, void=void)
     return replace(q, pq=p.pq, sq=p.sq, rq=p.rq, split=p.split, merged=p.merged,
-                   missed=p.missed, extra=p.extra, panoptic_min_size=panoptic_min_size)  # fmt: skip
+                   missed=p.missed, extra=p.extra, panoptic_min_size=panoptic_min_size,
+                   void=void)  # fmt: skip

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from causalsplat.instances.quality import InstanceQuality, instance_quality
+from causalsplat.instances.quality import InstanceQuality, Void, instance_quality, scene_quality
 
 
 def close(a: float, b: float) -> bool:
@@ -231,6 +231,7 @@ def test_to_json() -> None:
         "missed": 1,
         "extra": 2,
         "panoptic_min_size": 1,
+        "void": "ignored",
         "best_iou": {"4": 0.5},
         "matched": {"4": 0},
     }
@@ -338,17 +339,21 @@ def test_against_reference(seed: int) -> None:
 
 
 def panoptic_reference(
-    pred: list[int], gt: list[int], min_size: int, ignore: set[int]
+    pred: list[int], gt: list[int], min_size: int, ignore: set[int], void: str = "counted"
 ) -> tuple[float, float, float, int, int, int, int]:
-    """(PQ, SQ, RQ, split, merged, missed, extra) with plain Python sets."""
+    """(PQ, SQ, RQ, split, merged, missed, extra) with plain Python sets; with ``void``
+    "ignored", Kirillov et al.'s rules: the unlabelled elements leave each predicted set
+    before its IoU, and a predicted set more than half unlabelled is no false positive."""
     gts, preds = evaluated_sets(pred, gt, min_size, ignore)
+    unlabelled = {i for i, g in enumerate(gt) if g < 0} if void == "ignored" else set()
     matches = [
-        len(gs & ps) / len(gs | ps)
+        len(gs & ps) / len(gs | (ps - unlabelled))
         for gs in gts.values()
         for ps in preds.values()
-        if len(gs & ps) / len(gs | ps) > 0.5
+        if len(gs & ps) / len(gs | (ps - unlabelled)) > 0.5
     ]
-    tp, fn, fp = len(matches), len(gts) - len(matches), len(preds) - len(matches)
+    counted = [ps for ps in preds.values() if not len(ps & unlabelled) > len(ps) / 2]
+    tp, fn, fp = len(matches), len(gts) - len(matches), len(counted) - len(matches)
     denom = tp + fp / 2 + fn / 2
     sq = sum(matches) / tp if tp else math.nan
     rq = tp / denom if denom else math.nan
@@ -364,8 +369,9 @@ def panoptic_reference(
     return pq, sq, rq, split, merged, fn, fp
 
 
+@pytest.mark.parametrize("void", ["ignored", "counted"])
 @pytest.mark.parametrize("seed", range(40))
-def test_panoptic_quality_against_reference(seed: int) -> None:
+def test_panoptic_quality_against_reference(seed: int, void: Void) -> None:
     rng = np.random.default_rng(1000 + seed)
     n = int(rng.integers(0, 80))
     gt = rng.integers(-1, int(rng.integers(1, 7)), size=n)
@@ -378,8 +384,9 @@ def test_panoptic_quality_against_reference(seed: int) -> None:
         pred[cut] = pred[cut] + 10
     min_size = int(rng.integers(0, 4))
     ignore = {0} if seed % 3 == 0 else set()
-    q = instance_quality(pred, gt, min_size=min_size, ignore=ignore)
-    want = panoptic_reference(pred.tolist(), gt.tolist(), min_size, ignore)
+    q = instance_quality(pred, gt, min_size=min_size, ignore=ignore, void=void)
+    assert q.void == void
+    want = panoptic_reference(pred.tolist(), gt.tolist(), min_size, ignore, void)
     got = (q.pq, q.sq, q.rq, q.split, q.merged, q.missed, q.extra)
     for a, b in zip(got, want, strict=True):
         assert (math.isnan(a) and math.isnan(b)) or close(a, b), (got, want)
@@ -395,6 +402,35 @@ def test_panoptic_counts_a_split_and_a_merge() -> None:
     assert close(merged.pq, 1 / 2.5)
     exact = instance_quality(gt, gt)
     assert (exact.pq, exact.sq, exact.rq, exact.split, exact.merged) == (1.0, 1.0, 1.0, 0, 0)
+
+
+def test_panoptic_quality_leaves_out_what_nobody_labelled() -> None:
+    """Kirillov et al.'s void rules: a predicted instance is matched on its labelled part, and
+    one mostly over unlabelled elements is no false positive; the mean best IoU and AP keep
+    the unlabelled elements in the union (ScanNet's convention)."""
+    gt = np.array([0] * 10 + [-1] * 8 + [1] * 10 + [-1] * 6)
+    # object 0 with 8 unannotated elements beside it; object 1 exactly; an entity of 6
+    # unannotated elements
+    pred = np.array([0] * 18 + [1] * 10 + [2] * 6)
+    ignored = instance_quality(pred, gt)
+    assert (ignored.pq, ignored.sq, ignored.rq) == (1.0, 1.0, 1.0)
+    assert (ignored.missed, ignored.extra, ignored.void) == (0, 0, "ignored")
+    counted = instance_quality(pred, gt, void="counted")
+    # object 0: IoU 10 / 18, still a match; the unannotated entity is a false positive
+    assert (counted.missed, counted.extra) == (0, 1)
+    assert close(counted.sq, (10 / 18 + 1) / 2) and close(counted.rq, 2 / 2.5)
+    assert close(ignored.mean_best_iou, counted.mean_best_iou)
+    assert close(counted.mean_best_iou, (10 / 18 + 1) / 2)
+    # a half-void entity that holds too little of its object: missed, and it is no match,
+    # but as it is not more than half void it still counts as a false positive
+    half = np.array([0] * 4 + [-1] * 6 + [0] * 4 + [-1] * 4 + [1] * 10 + [-1] * 6)
+    half_q = instance_quality(half, gt)
+    assert (half_q.missed, half_q.extra) == (1, 1)
+    weighted = instance_quality(pred, gt, weights=np.ones(gt.size))
+    assert (weighted.pq, weighted.extra) == (1.0, 0)
+    with pytest.raises(ValueError, match="void must be one of ignored, counted, got 'none'"):
+        instance_quality(pred, gt, void="none")  # type: ignore[arg-type]
+    assert scene_quality(pred, gt, panoptic_min_size=1, void="counted").extra == 1
 
 
 def test_large_identical() -> None:
