@@ -8,7 +8,8 @@
   (:mod:`causalsplat.scannet.cameras`); images are renders for every view.
 - Masks: exact instance masks from the id render (``gt/masks``), and the SAM-like noisy masks
   labelled with the object table's categories (``masks``).
-- ``objects.json``: the object table (AABB centre and size, a vertex subsample);
+- ``objects.json``: the object table (AABB centre and size, a vertex subsample, the mean
+  colour of its vertices as ``rgb``, 0-255, as a built entity measures its own);
   ``queries.json``: the Sr3D / Nr3D / ScanRefer utterances (:mod:`causalsplat.scannet.language`).
 - ``gt/photos/``: the real photos resized to the output size, and in ``gt/scene.json`` the
   render-vs-photo errors (:mod:`causalsplat.scannet.photo`).
@@ -116,6 +117,7 @@ def _objects_document(source: ScanNetSource, rng: np.random.Generator, k: int) -
                 "center": round_floats(obj.center),
                 "size": round_floats(obj.size),
                 "points": round_floats(source.xyz[pick], 4),
+                "rgb": round_floats(source.rgb[index].mean(axis=0) * 255.0, 1),
             }
         )
     return {"scene_id": source.scan_id, "units": "m", "up": "z", "objects": objects}

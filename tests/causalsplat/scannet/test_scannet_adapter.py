@@ -80,7 +80,7 @@ def test_cameras_look_into_the_room(src: Path) -> None:
     assert len({tuple(np.round(c.center, 3)) for c in walk}) == 12
 
 
-def test_prepared_counts_and_labels(prepared: Path, raw_labels: np.ndarray) -> None:
+def test_prepared_counts_and_labels(prepared: Path, raw_labels: np.ndarray, src: Path) -> None:
     ply = read_gaussian_ply(prepared / "point_cloud.ply")
     assert ply.scene.n == N_VERTICES
     np.testing.assert_array_equal(ply.extra["gt_instance"], raw_labels - 1)
@@ -88,6 +88,11 @@ def test_prepared_counts_and_labels(prepared: Path, raw_labels: np.ndarray) -> N
     objects = json.loads((prepared / "objects.json").read_text())
     assert objects["scene_id"] == "scene0000_00" and len(objects["objects"]) == N_OBJECTS
     assert [o["id"] for o in objects["objects"]] == list(range(N_OBJECTS))
+    # each object's colour: the mean of its vertices' colours, as a build measures it
+    source = load_scannet(src)
+    for o in objects["objects"]:
+        want = source.rgb[source.instance == o["id"]].mean(axis=0) * 255.0
+        np.testing.assert_allclose(o["rgb"], want, atol=0.05)
     queries = json.loads((prepared / "queries.json").read_text())["queries"]
     assert len(queries) == 86
     assert all(0 <= t < N_OBJECTS for q in queries for t in q["targets"])
