@@ -64,15 +64,18 @@ class _Group(click.Group):
     default=None,
     help="Database URL or SQLite file path for the command (its own --db wins).",
 )
+@click.option(
+    "--json", "as_json", is_flag=True, help="Print one JSON document on stdout (any command)."
+)
 @click.pass_context
-def cli(ctx: click.Context, db_url: str | None) -> None:
+def cli(ctx: click.Context, db_url: str | None, as_json: bool) -> None:
     """CausalSplat: reasoning over 3D Gaussian Splatting scenes through a persisted scene graph.
 
     Every command takes --db URL (default sqlite:///causalsplat.db, or the
-    CAUSALSPLAT_DB environment variable), before or after its name, and --json for one
-    JSON document on stdout.
+    CAUSALSPLAT_DB environment variable) and --json for one JSON document on stdout,
+    before or after its name.
     """
-    ctx.obj = {"db_url": db_url}
+    ctx.obj = {"db_url": db_url, "as_json": as_json}
 
 
 def default_db() -> str:
@@ -126,10 +129,18 @@ class Seconds(click.ParamType):
 SECONDS = Seconds()
 
 
+def default_json() -> bool:
+    """Whether --json was given before the command's name (``causalsplat --json scenes``)."""
+    ctx = click.get_current_context(silent=True)
+    root = ctx.find_root() if ctx is not None else None
+    return bool((root.obj or {}).get("as_json")) if root is not None else False
+
+
 def json_option(func: F) -> F:
     return click.option(
-        "--json", "as_json", is_flag=True, help="Print one JSON document on stdout."
-    )(func)
+        "--json", "as_json", is_flag=True, default=default_json,
+        help="Print one JSON document on stdout.",
+    )(func)  # fmt: skip
 
 
 def entity_line(

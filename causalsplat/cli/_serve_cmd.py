@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+import json
 import signal
 import sys
 from types import FrameType
 
 import click
 
-from causalsplat.cli._app import SECONDS, cli, db_option, fail
+from causalsplat.cli._app import SECONDS, cli, db_option, fail, json_option
 
 
 def _stop(signum: int, frame: FrameType | None) -> None:
@@ -54,6 +55,7 @@ def _origins(values: tuple[str, ...]) -> tuple[str, ...]:
 )  # fmt: skip
 @click.option("--quiet", is_flag=True, help="Do not log requests on stderr.")
 @db_option
+@json_option
 def serve(
     host: str,
     port: int,
@@ -63,12 +65,14 @@ def serve(
     timeout: float,
     quiet: bool,
     db_url: str,
+    as_json: bool,
 ) -> None:
     """Serve a store over HTTP: a SPARQL 1.1 Protocol endpoint at /sparql, a JSON API at
     /api/scenes and a 3D viewer at /.
 
     Listens on 127.0.0.1 unless --host names another address and --allow-remote is
-    given. Prints the URL it listens on; stops on Ctrl-C or SIGTERM.
+    given. Prints the URL it listens on (--json: one line {"url", "sparql", "api",
+    "viewer"}) once it answers; stops on Ctrl-C or SIGTERM.
     """
     from causalsplat.api import open_store
     from causalsplat.serve import App, Server
@@ -80,7 +84,12 @@ def serve(
         # SIGINT too: a shell starts a background job with SIGINT ignored
         previous = {sig: signal.signal(sig, _stop) for sig in (signal.SIGINT, signal.SIGTERM)}
         click.echo(f"serving {store.graph_store.url} at {server.url} (Ctrl-C stops)", err=True)
-        click.echo(server.url)
+        if as_json:
+            endpoints = {"url": server.url, "sparql": f"{server.url}sparql",
+                         "api": f"{server.url}api/scenes", "viewer": server.url}  # fmt: skip
+            click.echo(json.dumps(endpoints))
+        else:
+            click.echo(server.url)
         sys.stdout.flush()
         try:
             server.serve_forever()

@@ -141,6 +141,22 @@ def test_db_before_the_command_name(tmp_path: Path, monkeypatch: pytest.MonkeyPa
     assert_one_line_error(run("scenes", check=False), "no store at")
 
 
+def test_json_before_the_command_name(tmp_path: Path) -> None:
+    """``causalsplat --json scenes`` as the help says every command takes --json before or
+    after its name: the same document as ``scenes --json``, in a command group too."""
+    here = f"sqlite:///{tmp_path / 'here.db'}"
+    doc = tmp_path / "objects.json"
+    doc.write_text(json.dumps({"scene_id": "k", "objects": [
+        {"id": 1, "label": "sink", "center": [0, 0, 0.9], "size": [0.6, 0.4, 0.2]}]}))  # fmt: skip
+    run("--db", here, "ingest-objects", str(doc))
+    before = json.loads(run("--json", "--db", here, "scenes").stdout)
+    assert before == json.loads(run("--db", here, "scenes", "--json").stdout)
+    assert [s["scene_id"] for s in before] == ["k"]
+    assert "k " in run("--db", here, "scenes").stdout  # no --json anywhere: text
+    current = json.loads(run("--json", "--db", here, "db", "current").stdout)
+    assert current == json.loads(run("--db", here, "db", "current", "--json").stdout)
+
+
 def test_a_plain_path_for_db_is_a_sqlite_file(tmp_path: Path) -> None:
     doc = tmp_path / "objects.json"
     doc.write_text(json.dumps(KITCHEN))

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import subprocess
@@ -38,6 +39,35 @@ def test_serve_prints_its_url_answers_and_stops_on_a_signal(store_url: str, how:
             proc.communicate()
     assert proc.returncode == 0, err
     assert err.strip().splitlines()[-1] == "stopped"
+
+
+@pytest.mark.parametrize("where", ["after", "before"])
+def test_serve_json_prints_its_endpoints_on_one_line(store_url: str, where: str) -> None:
+    """``serve --json`` (or ``causalsplat --json serve``): one JSON line naming the
+    endpoints, each of which a real client then reaches."""
+    args = ["--port", "0", "--quiet", "--db", store_url]
+    argv = [sys.executable, "-m", "causalsplat"]
+    argv += ["serve", *args, "--json"] if where == "after" else ["--json", "serve", *args]
+    proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            cwd=REPO_ROOT, env={**os.environ})  # fmt: skip
+    try:
+        assert proc.stdout is not None
+        endpoints = json.loads(proc.stdout.readline())
+        url = endpoints["url"]
+        assert url.startswith("http://127.0.0.1:") and endpoints["viewer"] == url
+        scenes = request(endpoints["api"]).json()["scenes"]
+        assert "demo-kitchen" in {s["scene_id"] for s in scenes}
+        ask = request(endpoints["sparql"] + "?query=ASK%20%7B%20%3Fs%20%3Fp%20%3Fo%20%7D",
+                      headers={"Accept": "application/sparql-results+json"})  # fmt: skip
+        assert ask.json()["boolean"] is True
+        proc.send_signal(signal.SIGTERM)
+        out, err = proc.communicate(timeout=COMMAND_TIMEOUT_S)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    assert proc.returncode == 0, err
+    assert out == ""  # the one line, nothing after it
 
 
 @pytest.mark.parametrize("host", ["0.0.0.0", "192.0.2.1"])
