@@ -48,7 +48,7 @@ import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, replace
 from numbers import Real
-from typing import Any, Literal
+from typing import Any, Literal, get_args
 
 import numpy as np
 import scipy.sparse as sp
@@ -65,7 +65,7 @@ __all__ = [
 
 #: How the panoptic figures treat elements without a ground-truth label (module docstring).
 Void = Literal["ignored", "counted"]
-VOIDS: tuple[Void, ...] = ("ignored", "counted")
+VOIDS: tuple[Void, ...] = get_args(Void)
 
 #: The share of a ground-truth instance a predicted one must hold to count as a part of it
 #: (for ``split`` and ``merged``).
