@@ -192,6 +192,9 @@ class Grounding:
     #: For a need: what would meet it best anywhere (a category of the knowledge table)
     #: and its score, the reference of :data:`NEED_SHARE`.
     reference: tuple[str, float] | None = None
+    #: The chosen category passed as a kind of the absent reference (a clock for an
+    #: alarm clock) though it scores below what the reference asks of it.
+    stands_for: bool = False
 
     @property
     def fits(self) -> bool:
@@ -219,6 +222,8 @@ class Grounding:
         shared = f"; all that afford {', '.join(self.shared)}" if self.shared else ""
         if self.reference is not None:
             shared += f"; best anywhere: {self.reference[0]} {self.reference[1]:.2f}"
+            if self.stands_for:
+                shared += f", which {best.category} may be"
         return (
             f"{self.how} {self.query!r} -> {', '.join(self.chosen)} ({self.method}; "
             f"best: {best.evidence!r}; ranked: {top}{shared})"
@@ -562,15 +567,25 @@ class Grounder:
         if patient is not None or (verbs is not None and verbs.verbs):
             kept = {id(c) for c in eligible}
             cands = [*eligible, *(c for c in cands if id(c) not in kept)]
+        stands_for = False
         if not eligible or eligible[0].score < fits:
             chosen: tuple[str, ...] = ()
         elif reference is not None and eligible[0].score < NEED_SHARE * reference[1]:
-            chosen = ()
+            stands_for = self._kind_of_reference(reference, eligible[0].category)
+            chosen = (eligible[0].category,) if stands_for else ()
         else:
             top = eligible[0].score
             chosen = tuple(sorted(c.category for c in eligible if abs(c.score - top) <= TIE))
         return Grounding(how, query, tuple(cands[:TOP_K]), chosen, self.scorer.method,
-                         reference=reference)  # fmt: skip
+                         reference=reference, stands_for=stands_for)  # fmt: skip
+
+    def _kind_of_reference(self, reference: tuple[str, float], category: str) -> bool:
+        """``category`` names what the reference, absent here, is a kind of (the scene's
+        clock may well be the alarm clock that would meet the need best)."""
+        wanted = reference[0].lower()
+        if any(c.lower() == wanted for c in self.ctx.categories):
+            return False
+        return self.lexicon.kind_of(wanted, category)
 
     def _does_it_to_itself(
         self, acted: dict[str, tuple[int, int, float]], verbs: NeedVerbs, said: frozenset[str]
@@ -649,6 +664,11 @@ class Grounder:
         if any(verb_fit(verbs, facts_for(c, knowledge, self.lexicon), self.lexicon) > 0.0
                for c in ranked.chosen):  # fmt: skip
             return ranked
+        if ranked.chosen == (ranked.candidates[0].category,) and self._kind_of_reference(
+            ranked.reference, ranked.chosen[0]
+        ):
+            # a clock does what the alarm clock it may be does
+            return replace(ranked, stands_for=True)
         if ranked.candidates[0].score >= VERB_SHARE * ranked.reference[1]:
             return ranked
         return replace(ranked, chosen=())

@@ -155,6 +155,28 @@ class Lexicon:
             frontier = nxt
         return seen
 
+    def kind_of(self, specific: str, general: str) -> bool:
+        """``general`` names what ``specific`` is a kind of: a noun sense of ``general`` is
+        the direct hypernym of ``specific``'s first sense (an alarm clock is a clock, a
+        footstool a stool), or, for a phrase WordNet does not know, ``general`` is its
+        head noun (a tea kettle is a kettle).
+
+        >>> lex = load_lexicon()
+        >>> lex.kind_of("alarm clock", "clock"), lex.kind_of("clock", "alarm clock")
+        (True, False)
+        >>> lex.kind_of("trash can", "can")
+        False
+        """
+        words = specific.lower().split()
+        wanted = self.phrase_lemma(general.lower().split())
+        if not words or not self.has_noun(wanted):
+            return False
+        lemma = self.phrase_lemma(words)
+        senses = self.noun_senses(lemma)
+        if not senses:
+            return len(words) > 1 and self.lemma(words[-1], "n") == wanted
+        return bool(set(self.noun_hypernyms(senses[0])) & set(self.noun_senses(wanted)))
+
     def synonyms(self, term: str, *, senses: int = 1) -> tuple[str, ...]:
         """Lemmas sharing one of the first ``senses`` noun senses of ``term`` (itself first)."""
         out = [term]

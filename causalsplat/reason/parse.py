@@ -165,6 +165,11 @@ def parse_instruction(text: str, index: CategoryIndex) -> Instruction:
                            closure=bool(g.CLOSURE_TRIGGERS.search(joined)))  # fmt: skip
     action = _action_words(main_tokens, items)
     purpose, fetch = _purpose(main_tokens)
+    kind_noun = False
+    if purpose is None and g.ACTION_TRIGGERS.search(joined):
+        # "I need a machine to dry my clothes": what is wanted is whatever does the purpose
+        purpose = _kind_purpose(main_tokens, items, index.lexicon)
+        kind_noun = purpose is not None
     command = False
     if purpose is None:
         purpose, fetch = _imperative(main_tokens, index)
@@ -177,7 +182,16 @@ def parse_instruction(text: str, index: CategoryIndex) -> Instruction:
         or purpose is not None
         or any(g.state_at(main_tokens, i) for i in range(len(main_tokens)))
     )
-    if wants and not _names_what_is_wanted(target, purpose, fetch):
+    if wants and (kind_noun or not _names_what_is_wanted(target, purpose, fetch)):
+        if (
+            kind_noun
+            and target is not None
+            and target.mention is not None
+            and purpose is not None
+            and target.mention.start < purpose
+        ):
+            # the kind noun says what sort of thing does it; the need decides which
+            target = NounPhrase(None, constraints=target.constraints)
         target = _place_of_need(_anchor_of_need(target, items))
         return Instruction(text, tokens, "action", target, action=action, viewpoint=viewpoint,
                            standing_at=standing, purpose_start=purpose,
@@ -262,6 +276,40 @@ def _quantified(tokens: tuple[str, ...], target: NounPhrase) -> bool:
 
 #: Lowest lexicon score of a mention that names a category (see ``ground.NAMED``).
 _NAMED = 0.8
+
+
+#: Lexicon score from which a noun names a scene category itself (its name, base form or
+#: synonym), not only as its head noun ("machine" of "washing machine") or a hypernym.
+_NAMES_ITSELF = 0.9
+_INDEFINITE = frozenset({"a", "an", "some", "another"})
+
+
+def _kind_purpose(tokens: tuple[str, ...], items: list[Item], lexicon: Lexicon) -> int | None:
+    """Where the purpose clause begins in "a N to VERB ..." when N names no scene category
+    itself, only a kind of thing ("I need a device to clean my clothes", "a machine to dry
+    my clothes", "a tool to exercise with"): the purpose says which thing is wanted, as
+    after "something to". A noun that names a category ("a towel to dry off") is itself
+    the thing wanted; ``None`` then, and when there is no such frame."""
+    named = {
+        it.np.mention.end: it.np.mention.score
+        for it in items
+        if isinstance(it.np, NounPhrase) and it.np.mention is not None
+        and it.np.mention.categories
+    }  # fmt: skip
+    for i in range(2, len(tokens) - 1):
+        if tokens[i] != "to":
+            continue
+        # the noun phrase before "to": at most three words after an indefinite article
+        opened = [k for k in range(max(0, i - 4), i - 1) if tokens[k] in _INDEFINITE]
+        if not opened or not all(t.isalpha() for t in tokens[opened[-1] + 1 : i]):
+            continue
+        after = tokens[i + 1]
+        if after in g.FUNCTION_WORDS or not lexicon.verb_senses(lexicon.lemma(after, "v")):
+            return None
+        if named.get(i, 0.0) >= _NAMES_ITSELF:
+            return None
+        return i + 1
+    return None
 
 
 def _purpose(tokens: tuple[str, ...]) -> tuple[int | None, bool]:

@@ -77,3 +77,16 @@ def test_stage_one_reads_sr3d_templates(room: SceneContext) -> None:
     ]  # fmt: skip
     assert parse("what can I sit on?", room).kind == "action"
     assert parse("the blue cup", room).is_intrinsic
+
+
+def test_a_kind_noun_before_to_and_a_verb_opens_a_purpose(room: SceneContext) -> None:
+    parse = OfflineReasoner().parse
+    # "a device to ..." names no category itself: the purpose decides what is wanted
+    ins = parse("I need a device to heat my soup", room)
+    assert ins.kind == "action" and ins.purpose_start == 5
+    assert ins.target is None or ins.target.mention is None
+    # a noun that names a category is itself what is wanted
+    assert parse("I need a cup to drink from", room).target.categories == ("cup",)  # type: ignore[union-attr]
+    # "to" before no verb, or in a sentence that wants nothing, opens no purpose
+    assert parse("the table has a cup next to it", room).kind == "refer"
+    assert parse("the box with a lid to the left of the cup", room).kind == "refer"
