@@ -166,7 +166,9 @@ def parse_instruction(text: str, index: CategoryIndex) -> Instruction:
     action = _action_words(main_tokens, items)
     purpose, fetch = _purpose(main_tokens)
     kind_noun = False
-    if purpose is None and g.ACTION_TRIGGERS.search(joined):
+    if purpose is None and (
+        g.ACTION_TRIGGERS.search(joined) or _imperative(main_tokens, index)[0] is not None
+    ):
         # "I need a machine to dry my clothes": what is wanted is whatever does the purpose
         purpose = _kind_purpose(main_tokens, items, index.lexicon)
         kind_noun = purpose is not None
@@ -304,7 +306,11 @@ def _kind_purpose(tokens: tuple[str, ...], items: list[Item], lexicon: Lexicon) 
         if not opened or not all(t.isalpha() for t in tokens[opened[-1] + 1 : i]):
             continue
         after = tokens[i + 1]
-        if after in g.FUNCTION_WORDS or not lexicon.verb_senses(lexicon.lemma(after, "v")):
+        if (
+            after in g.DETERMINERS
+            or after in g.PRONOUNS
+            or not lexicon.verb_senses(lexicon.lemma(after, "v"))
+        ):
             return None
         if named.get(i, 0.0) >= _NAMES_ITSELF:
             return None
