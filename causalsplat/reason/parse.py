@@ -165,16 +165,15 @@ def parse_instruction(text: str, index: CategoryIndex) -> Instruction:
                            closure=bool(g.CLOSURE_TRIGGERS.search(joined)))  # fmt: skip
     action = _action_words(main_tokens, items)
     purpose, fetch = _purpose(main_tokens)
+    imperative = _imperative(main_tokens, index) if purpose is None else (None, False)
     kind_noun = False
-    if purpose is None and (
-        g.ACTION_TRIGGERS.search(joined) or _imperative(main_tokens, index)[0] is not None
-    ):
+    if purpose is None and (g.ACTION_TRIGGERS.search(joined) or imperative[0] is not None):
         # "I need a machine to dry my clothes": what is wanted is whatever does the purpose
         purpose = _kind_purpose(main_tokens, items, index.lexicon)
         kind_noun = purpose is not None
     command = False
     if purpose is None:
-        purpose, fetch = _imperative(main_tokens, index)
+        purpose, fetch = imperative
         command = purpose is not None
         if fetch and (target is None or (target.is_any and target.mention is not None)):
             # "take the one on the left": a picking, read as the description it opens
