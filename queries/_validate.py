@@ -105,19 +105,20 @@ def _check_fields(i: int, step: Step) -> None:
                 step=i,
                 field=name,
             )
-    rightward = step.metric is not None and step.metric.value == "rightward"
+    seen_from = step.metric is not None and step.metric.is_seen_from
     if step.viewpoint is not None and not (
-        rightward or (step.relation is not None and step.relation.is_view_dependent)
+        seen_from or (step.relation is not None and step.relation.is_view_dependent)
     ):
         raise QueryValidationError(
             "is only used with the view-dependent relations left_of, right_of, in_front_of"
-            " and behind, and with metric 'rightward'",
+            " and behind, and with metrics 'rightward' and 'forward'",
             step=i,
             field="viewpoint",
         )
-    if rightward and step.viewpoint is None:
+    if seen_from and step.viewpoint is None:
+        assert step.metric is not None
         raise QueryValidationError(
-            "metric 'rightward' needs a viewpoint (the observer's eye and target)",
+            f"metric {step.metric.value!r} needs a viewpoint (the observer's eye and target)",
             step=i,
             field="viewpoint",
         )

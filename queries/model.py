@@ -104,7 +104,10 @@ class Metric(StrEnum):
     ``height``: vertical bounding-box extent; ``volume``: bounding-box volume;
     ``rightward``: how far to the right of the step's ``viewpoint`` (the observer at ``eye``
     looking at ``target``) the centroid lies, horizontally, so ``argmax`` is the rightmost
-    and ``argmin`` the leftmost as the observer sees them (needs ``viewpoint``).
+    and ``argmin`` the leftmost as the observer sees them (needs ``viewpoint``);
+    ``forward``: how far ahead of the observer, along the line of sight, so ``argmin`` is
+    the nearest ahead and ``argmax`` the farthest ("across the room from the door": the
+    observer at the door, looking into the room; needs ``viewpoint``).
     """
 
     DISTANCE = "distance"
@@ -115,6 +118,12 @@ class Metric(StrEnum):
     X = "x"
     Y = "y"
     RIGHTWARD = "rightward"
+    FORWARD = "forward"
+
+    @property
+    def is_seen_from(self) -> bool:
+        """Ranks as an observer sees the entities: needs the step's ``viewpoint``."""
+        return self in (Metric.RIGHTWARD, Metric.FORWARD)
 
     @property
     def is_distance(self) -> bool:

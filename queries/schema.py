@@ -24,8 +24,8 @@ flat :func:`graph_query_schema` is unchanged.
 :func:`graph_query_schema_by_op` says what the flat schema cannot: a step is one of a list
 of per-op schemas (``anyOf``), each holding only the fields its op takes, with the op's
 arity as ``minItems`` / ``maxItems`` of ``inputs``; ``relate``, ``argmin`` and ``argmax`` are
-two schemas each, and only the one whose relation (or metric, ``rightward``) is seen from a
-viewpoint has a ``viewpoint``. Under a grammar (llama.cpp,
+two schemas each, and only the one whose relation (or metric, ``rightward`` or
+``forward``) is seen from a viewpoint has a ``viewpoint``. Under a grammar (llama.cpp,
 OpenAI's strict mode, both accept ``anyOf``) a model then cannot write a field its op does
 not use: a small model that fills every field it is offered otherwise writes a viewpoint of
 zeros on a ``filter_category`` step.
@@ -108,7 +108,7 @@ def _build() -> dict[str, Any]:
                 "required": ["eye", "target"],
                 "additionalProperties": False,
                 "description": "Observer for view-dependent relations (default: the scene"
-                " centre looking at the anchor) and for metric rightward.",
+                " centre looking at the anchor) and for metrics rightward and forward.",
             },
         },
         "required": ["op"],
@@ -137,7 +137,7 @@ def _step_schema(
 ) -> dict[str, Any]:
     """One op's step: its own fields (the rest absent), its arity on ``inputs``; a
     ``viewpoint`` only where ``relations`` / ``metrics`` are seen from one (required with
-    ``rightward``)."""
+    ``rightward`` and ``forward``)."""
     spec = OP_SPECS[op]
     shared = _SCHEMA["properties"]["steps"]["items"]["properties"]
     inputs = copy.deepcopy(shared["inputs"])
@@ -147,11 +147,11 @@ def _step_schema(
         "inputs": inputs,
     }
     required = ["op", "inputs", *spec.required]
-    rightward = metrics is not None and Metric.RIGHTWARD in metrics
+    seen = metrics is not None and any(m.is_seen_from for m in metrics)
     for name in STEP_FIELDS:
         if name in spec.required or name in spec.optional:
             if name == "viewpoint":
-                seen_from = any(r.is_view_dependent for r in relations) if relations else rightward
+                seen_from = any(r.is_view_dependent for r in relations) if relations else seen
                 if not seen_from:
                     continue
             props[name] = copy.deepcopy(shared[name])
@@ -159,7 +159,7 @@ def _step_schema(
         props["relation"]["enum"] = [r.value for r in relations]
     if metrics is not None:
         props["metric"]["enum"] = [m.value for m in metrics]
-    if rightward:
+    if seen:
         required.append("viewpoint")
     return {
         "type": "object",
@@ -177,9 +177,9 @@ def _build_by_op() -> dict[str, Any]:
             variants.append(_step_schema(op, split))
             variants.append(_step_schema(op, [r for r in RelationType if r.is_view_dependent]))
         elif op in (Op.ARGMIN, Op.ARGMAX):
-            plain: list[Metric] = [m for m in Metric if m is not Metric.RIGHTWARD]
+            plain: list[Metric] = [m for m in Metric if not m.is_seen_from]
             variants.append(_step_schema(op, metrics=plain))
-            variants.append(_step_schema(op, metrics=[Metric.RIGHTWARD]))
+            variants.append(_step_schema(op, metrics=[m for m in Metric if m.is_seen_from]))
         else:
             variants.append(_step_schema(op))
     schema = copy.deepcopy(_SCHEMA)

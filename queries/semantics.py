@@ -24,7 +24,8 @@ Geometry (world frame, scene units, ``z`` up; see :class:`Algebra`)
       to the scene centre. ``horizontal_distance``: the same with ``dz`` left out.
     * ``argmin`` / ``argmax``: sort by (metric ascending / descending, entity id ascending),
       keep the first ``k``. ``rightward`` (:func:`metric_value`): ``d·(f.y, -f.x)`` with
-      ``f = target - eye`` of the step's viewpoint and ``d = centroid - eye``.
+      ``f = target - eye`` of the step's viewpoint and ``d = centroid - eye``; ``forward``:
+      ``d·f``.
     * View-dependent relations (:func:`view_relation`), horizontal plane only: the observer
       looks from ``eye`` towards ``target`` (default: from the scene centre towards the anchor
       ``a``); with ``f = target - eye`` and ``d = s - a``, ``fwd = d·f`` and
@@ -278,15 +279,24 @@ def metric_value(
     view: tuple[tuple[N, N], tuple[N, N]] | None = None,
 ) -> N:
     """An entity's value for a non-distance metric (``x``, ``y``, ``z``, ``height``,
-    ``volume``, ``rightward``). ``rightward`` needs ``view``, ``(eye, target)`` (x, y): with
-    ``f = target - eye`` and ``d = centroid - eye``, the value is ``d·(f.y, -f.x)``
-    (``dx*fy - dy*fx``), larger to the observer's right."""
-    if metric == "rightward":
+    ``volume``, ``rightward``, ``forward``). ``rightward`` and ``forward`` need ``view``,
+    ``(eye, target)`` (x, y): with ``f = target - eye`` and ``d = centroid - eye``,
+    ``rightward`` is ``d·(f.y, -f.x)`` (``dx*fy - dy*fx``), larger to the observer's right,
+    and ``forward`` is ``d·f`` (``dx*fx + dy*fy``), larger the farther ahead.
+
+    >>> view = ((0.0, 0.0), (0.0, 2.0))  # at the origin, looking along +y
+    >>> [metric_value(PY, m, (1.0, 3.0, 0.0), (0, 0, 0), (1, 1, 1), view)
+    ...  for m in ("rightward", "forward")]
+    [2.0, 6.0]
+    """
+    if metric in ("rightward", "forward"):
         if view is None:
-            raise ValueError("metric 'rightward' needs a view (eye, target)")
+            raise ValueError(f"metric {metric!r} needs a view (eye, target)")
         (ex, ey), (tx, ty) = view
         fx, fy = alg.sub(tx, ex), alg.sub(ty, ey)
         dx, dy = alg.sub(centroid[0], ex), alg.sub(centroid[1], ey)
+        if metric == "forward":
+            return alg.add(alg.mul(dx, fx), alg.mul(dy, fy))
         return alg.sub(alg.mul(dx, fy), alg.mul(dy, fx))
     if metric == "x":
         return centroid[0]

@@ -113,7 +113,7 @@ def steps_for(draw: st.DrawFn, op: Op, sets: list[int]) -> dict[str, Any]:
         two = metric.is_distance and draw(st.booleans())
         step.update(inputs=_refs(draw, sets, 2 if two else 1), metric=metric.value)
         step["k"] = draw(st.none() | st.integers(1, 4))
-        if metric is Metric.RIGHTWARD:
+        if metric.is_seen_from:
             step["viewpoint"] = draw(viewpoints())
     elif op in (Op.UNION, Op.INTERSECT):
         step["inputs"] = _refs(draw, sets, draw(st.integers(2, 3)))

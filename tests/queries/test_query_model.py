@@ -87,10 +87,12 @@ INVALID = [
     ),
     (with_step({"op": "argmax", "inputs": [1, 2], "metric": "z"}), 4, "inputs", "distance"),
     (with_step({"op": "argmax", "inputs": [1], "metric": "rightward"}), 4, "viewpoint", "needs"),
+    (with_step({"op": "argmin", "inputs": [1], "metric": "forward"}), 4, "viewpoint",
+     "metric 'forward' needs"),
     (
         with_step({"op": "argmin", "inputs": [1], "metric": "z",
                    "viewpoint": {"eye": [0, 0, 0], "target": [1, 0, 0]}}),
-        4, "viewpoint", "metric 'rightward'",
+        4, "viewpoint", "metrics 'rightward' and 'forward'",
     ),
     (
         with_step({"op": "match_text", "inputs": [0], "value": "cup", "k": 0}),

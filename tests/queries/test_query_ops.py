@@ -98,6 +98,12 @@ CASES = [
     # looking at (1, 2), right is (2, -1): towels 2, 3, 4 at 3, 5 and 6 to the right
     ("v4 = argmax(v2, rightward, k=2, viewpoint=(0.0, 0.0, 1.0)->(1.0, 2.0, 1.0))", (3, 4)),
     ("v4 = argmin(v2, rightward, viewpoint=(0.0, 0.0, 1.0)->(1.0, 2.0, 1.0))", (2,)),
+    # ahead of the centre towards the sink (+x): towels 2 and 3 at x = 2, towel 4 at x = 3
+    ("v4 = argmax(v2, forward, viewpoint=(0.0, 0.0, 1.0)->(2.0, 0.0, 1.0))", (4,)),
+    ("v4 = argmin(v2, forward, k=2, viewpoint=(0.0, 0.0, 1.0)->(2.0, 0.0, 1.0))", (2, 3)),
+    # from behind the sink looking back (-x), towel 4 is the nearest ahead
+    ("v4 = argmin(v2, forward, viewpoint=(4.0, 0.0, 1.0)->(2.0, 0.0, 1.0))", (4,)),
+    ("v4 = argmax(v0, forward, viewpoint=(4.0, 0.0, 1.0)->(2.0, 0.0, 1.0))", (6,)),
     ("v4 = argmin(v2, v1, distance)", (2,)),
     ("v4 = argmin(v2, v1, distance, k=2)", (2, 3)),
     ("v4 = argmin(v0, v1, distance, k=2)", (2, 3)),

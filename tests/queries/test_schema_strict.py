@@ -221,7 +221,7 @@ def test_the_per_op_schema_passes_strict_mode_rules() -> None:
             if "relation" in fields:
                 assert all(RelationType(r).is_view_dependent for r in fields["relation"]["enum"])
             else:
-                assert fields["metric"]["enum"] == ["rightward"]
+                assert fields["metric"]["enum"] == ["rightward", "forward"]
 
 
 @settings(max_examples=150, deadline=None)
