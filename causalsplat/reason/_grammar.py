@@ -37,8 +37,9 @@ CUE_PATTERNS: tuple[tuple[str, str], ...] = (
                 r"in the (?:middle|center|centre) of"),
     ("farthest", r"(?:the )?(?:(?:farthest|furthest|farther|further|far)(?: away)?|away) from|"
                  r"(?:the )?(?:farthest|furthest)(?= (?!left |right |to )(?:\S+ ){1,3}from )"),
-    ("closest", r"(?:the )?(?:closest|nearest|closer|nearer)(?: to)?|"
-                r"(?:(?:directly|right|just) )?(?:across from|opposite(?: to| from| of)?)"),
+    ("closest", r"(?:the )?(?:closest|nearest|closer|nearer)(?: to)?"),
+    ("opposite", r"(?:(?:directly|right|just|diagonally) )?"
+                 r"(?:across from|opposite(?: to| from| of)?)"),
     ("near", r"(?:(?:right|directly|just|located|placed|sitting|standing) )?"
              r"(?:near(?: to)?|next to|beside|besides|by|adjacent to|alongside|close to|"
              r"nearby|against|at)"),

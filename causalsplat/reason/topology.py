@@ -96,10 +96,14 @@ RELAXATIONS: dict[str, tuple[str, ...]] = {
 #: 1,200 sampled Sr3D *train* vertical rows: above 91.0 % by 3D distance, 95.6 %
 #: horizontally; below 91.0 % and 93.7 %.
 VERTICAL = frozenset({"above", "below"})
+#: "Across from X" looks from X into the room, unless X is this near the room's centre
+#: (share of the horizontal half diagonal of all boxes), where it faces no way.
+MIDDLE = 0.2
 
 _WORDS = {
     "supported_by": "on", "supports": "supporting", "above": "above", "below": "below",
     "inside": "inside", "contains": "containing", "near": "near", "closest": "closest to",
+    "opposite": "across from",
     "farthest": "farthest from", "between": "between", "left_of": "left of",
     "right_of": "right of", "in_front_of": "in front of", "behind": "behind",
     "with": "with",
@@ -441,6 +445,8 @@ class Planner:
             upto = b.add(op, step, a[0], metric=Metric.DISTANCE, k=nth)
             before = b.add(op, step, a[0], metric=Metric.DISTANCE, k=nth - 1)
             return b.add(Op.DIFFERENCE, upto, before)
+        if kind == "opposite":
+            return self._opposite(step, a[0], singular=singular, selectors=selectors)
         if kind == "near" and singular and not selectors:
             return b.add(Op.ARGMIN, step, a[0], metric=Metric.DISTANCE)
         if kind == "between":
@@ -491,6 +497,35 @@ class Planner:
             return step
         b.note(f"nothing is {_WORDS.get(kind, kind)} it; took the closest instead")
         return closest
+
+    def _opposite(self, step: int, anchor: int, *, singular: bool, selectors: bool) -> int:
+        """ "Across from X", "opposite X": seen from X looking into the room (towards the
+        scene centre), the candidate farthest ahead (``argmax`` of ``forward``); with more to
+        choose, those ahead of X (``behind`` it, seen from it: the quarter of the room it
+        faces). X in the middle of the room (within :data:`MIDDLE` of the half diagonal
+        from its centre) faces no way: the closest to it."""
+        b = self.b
+        ids = b.value(anchor)
+        pts = [self.ctx.by_id[i].centroid for i in ids]
+        where = [math.fsum(p[k] for p in pts) / len(pts) for k in range(3)] if pts else None
+        centre = list(self.ctx.centre)
+        ents = self.ctx.graph.entities
+        half = 0.5 * math.dist(
+            [min(e.bbox_min[k] for e in ents) for k in (0, 1)],
+            [max(e.bbox_max[k] for e in ents) for k in (0, 1)],
+        )
+        if where is None or math.dist(where[:2], centre[:2]) < max(
+            MIN_VIEW_DISTANCE, MIDDLE * half
+        ):
+            return self._related(step, "closest", [anchor], singular=singular, selectors=selectors)
+        view = {"eye": where, "target": centre}
+        others = b.add(Op.DIFFERENCE, step, anchor)
+        if b.size(others) == 0:
+            others = step  # the words leave the anchor itself ("the chair opposite the chair")
+        if singular and not selectors:
+            return b.add(Op.ARGMAX, others, metric=Metric.FORWARD, viewpoint=view)
+        ahead = b.add(Op.RELATE, others, anchor, relation=RelationType.BEHIND, viewpoint=view)
+        return ahead if b.size(ahead) > 0 or not singular else others
 
     def _between(self, step: int, a1: int, a2: int, *, singular: bool) -> int:
         b = self.b

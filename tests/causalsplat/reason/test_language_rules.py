@@ -220,12 +220,6 @@ def test_closest_before_its_noun_qualifies_that_noun() -> None:
     assert ask(scene, "If you are standing at the stove, it is the closest stool.") == (3,)
 
 
-def test_across_from_reads_as_the_one_closest_to_the_anchor() -> None:
-    scene = _scene(KITCHEN)
-    assert ask(scene, "the stool across from the stove") == (3,)
-    assert ask(scene, "the stool opposite the bookshelf") == (4,)
-
-
 def test_a_relation_that_selects_nothing_leaves_the_choice_to_the_phrase_s_selector() -> None:
     # pictures hang in front of the wall (no support edge); "the highest picture on the wall"
     # is the highest, not the one closest to the wall, and without a selector of its own the

@@ -115,3 +115,28 @@ def test_a_leftmost_one_after_and_is_the_target_not_a_second_thing() -> None:
     ctx = _row_of_tables()
     answer = REASONER.answer("there are three tables, and you want the left-most one", ctx)
     assert answer.entity_ids == (1,), answer.explanation
+
+
+def test_across_from_is_on_the_far_side_not_the_closest() -> None:
+    # a door on the west wall; one whiteboard on the east wall facing it, one on the north
+    # wall a metre from the door: the whiteboard across from the door is the far one
+    ctx = _room([FLOOR, (1, "door", (-3.9, 0.0, 1.0), (0.1, 0.9, 2.0)),
+                 (2, "whiteboard", (3.9, 0.3, 1.5), (0.05, 1.5, 1.0)),
+                 (3, "whiteboard", (-2.5, 3.9, 1.5), (1.5, 0.05, 1.0))])  # fmt: skip
+    for text in ("the whiteboard across from the door", "the whiteboard opposite the door",
+                 "find the whiteboard that is directly opposite to the door"):  # fmt: skip
+        answer = REASONER.answer(text, ctx)
+        assert answer.entity_ids == (2,), (text, answer.explanation)
+    assert Metric.FORWARD in {s.metric for s in answer.program.steps}
+    # closest is still closest
+    assert REASONER.answer("the whiteboard closest to the door", ctx).entity_ids == (3,)
+
+
+def test_across_from_something_in_the_middle_is_the_closest() -> None:
+    # a table in the middle of the room faces no way: across from it is read as closest
+    ctx = _room([FLOOR, (1, "table", (0.05, 0.0, 0.4), (1.2, 0.8, 0.8)),
+                 (2, "chair", (0.05, 1.0, 0.45), BOX),
+                 (3, "chair", (3.0, -3.0, 0.45), BOX)])  # fmt: skip
+    answer = REASONER.answer("the chair across from the table", ctx)
+    assert answer.entity_ids == (2,)
+    assert Metric.FORWARD not in {s.metric for s in answer.program.steps}, answer.explanation
