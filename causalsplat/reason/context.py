@@ -10,6 +10,7 @@ per-Gaussian labels are read from the store only when an answer needs them.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
@@ -38,6 +39,7 @@ class SceneContext:
         categories: distinct entity categories, sorted.
         centre: ``(x, y, z)`` centre of the union of entity boxes (world frame, scene units),
             the same point the query language uses as its default eye.
+        half_diagonal: half the horizontal (x, y) diagonal of that union (scene units).
         cache: per-scene memo for the backends (keys are private to each backend).
     """
 
@@ -58,7 +60,7 @@ class SceneContext:
         self._labels_read = False
         self.by_id: dict[int, Entity] = {e.id: e for e in graph.entities}
         self.categories: tuple[str, ...] = tuple(sorted({e.category for e in graph.entities}))
-        self.centre: Vec3 = _centre(graph.entities)
+        self.centre, self.half_diagonal = _centre(graph.entities)
         self.cache: dict[str, Any] = {}
 
     def __repr__(self) -> str:
@@ -141,9 +143,11 @@ class SceneContext:
         return self._labels
 
 
-def _centre(entities: tuple[Entity, ...]) -> Vec3:
+def _centre(entities: tuple[Entity, ...]) -> tuple[Vec3, float]:
+    """The centre of the union of the entity boxes and half its horizontal diagonal."""
     if not entities:
-        return (0.0, 0.0, 0.0)
+        return (0.0, 0.0, 0.0), 0.0
     lo = [min(e.bbox_min[k] for e in entities) for k in range(3)]
     hi = [max(e.bbox_max[k] for e in entities) for k in range(3)]
-    return ((lo[0] + hi[0]) * 0.5, (lo[1] + hi[1]) * 0.5, (lo[2] + hi[2]) * 0.5)
+    centre = ((lo[0] + hi[0]) * 0.5, (lo[1] + hi[1]) * 0.5, (lo[2] + hi[2]) * 0.5)
+    return centre, 0.5 * math.dist(lo[:2], hi[:2])

@@ -505,18 +505,10 @@ class Planner:
         faces). X in the middle of the room (within :data:`MIDDLE` of the half diagonal
         from its centre) faces no way: the closest to it."""
         b = self.b
-        ids = b.value(anchor)
-        pts = [self.ctx.by_id[i].centroid for i in ids]
-        where = [math.fsum(p[k] for p in pts) / len(pts) for k in range(3)] if pts else None
+        where = self._mean_centroid(b.value(anchor))
         centre = list(self.ctx.centre)
-        ents = self.ctx.graph.entities
-        half = 0.5 * math.dist(
-            [min(e.bbox_min[k] for e in ents) for k in (0, 1)],
-            [max(e.bbox_max[k] for e in ents) for k in (0, 1)],
-        )
-        if where is None or math.dist(where[:2], centre[:2]) < max(
-            MIN_VIEW_DISTANCE, MIDDLE * half
-        ):
+        near_middle = max(MIN_VIEW_DISTANCE, MIDDLE * self.ctx.half_diagonal)
+        if where is None or math.dist(where[:2], centre[:2]) < near_middle:
             return self._related(step, "closest", [anchor], singular=singular, selectors=selectors)
         view = {"eye": where, "target": centre}
         others = b.add(Op.DIFFERENCE, step, anchor)
@@ -571,7 +563,10 @@ class Planner:
             self._placing_viewpoint = False
         if planned is None:
             return None
-        ids = self.b.value(planned.step)
+        return self._mean_centroid(self.b.value(planned.step))
+
+    def _mean_centroid(self, ids: tuple[int, ...]) -> list[float] | None:
+        """The mean centroid of the entities ``ids`` (``None`` for none)."""
         if not ids:
             return None
         pts = [self.ctx.by_id[i].centroid for i in ids]
