@@ -15,7 +15,7 @@ from typing import Any
 
 from graph_store.types import Entity, RelationType, SceneGraph
 from queries._base import Executor, RunValue, run_sets, top_k
-from queries.model import GraphQuery, Metric, Op, Step
+from queries.model import GraphQuery, Op, Step
 from queries.result import QueryResult
 from queries.semantics import (
     DEFAULT_CONFIG,
@@ -29,7 +29,7 @@ from queries.semantics import (
     metric_value,
     normalise_text,
     rank_texts,
-    squared_distance,
+    reference_distance,
     support_paths,
     view_consts,
     view_relation,
@@ -168,7 +168,6 @@ class InMemoryExecutor(Executor):
         keyed: list[tuple[float, int]] = []
         for x in ins[0]:
             e = self._entity(x)
-            flat = metric is Metric.HORIZONTAL_DISTANCE
             if not metric.is_distance:
                 value = metric_value(
                     PY,
@@ -179,16 +178,19 @@ class InMemoryExecutor(Executor):
                     view_consts(PY, step.viewpoint),
                 )
             elif len(ins) == 2:
+                refs = [self._entity(a) for a in ins[1] if a != x]
                 others = [
-                    squared_distance(PY, e.centroid, self._entity(a).centroid, horizontal=flat)
-                    for a in ins[1]
-                    if a != x
+                    reference_distance(
+                        PY, metric.value, e.centroid, r.centroid, r.bbox_min, r.bbox_max
+                    )
+                    for r in refs
                 ]
                 if not others:
                     continue
                 value = min(others)
             else:
-                value = squared_distance(PY, e.centroid, self._centre, horizontal=flat)
+                c = self._centre
+                value = reference_distance(PY, metric.value, e.centroid, c, c, c)
             keyed.append((sign * value, x))
         return top_k(keyed, step.effective_k)
 

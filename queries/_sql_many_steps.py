@@ -24,7 +24,7 @@ from sqlalchemy.engine import Connection
 from graph_store import models as m
 from graph_store.types import RelationType
 from queries._sql_steps import ATTR, NO_RANK, REL, SQL, Cond, E
-from queries.model import Metric, Op, Step
+from queries.model import Op, Step
 from queries.semantics import (
     QueryConfig,
     attribute_filter,
@@ -34,7 +34,7 @@ from queries.semantics import (
     matching_categories,
     metric_value,
     rank_texts,
-    squared_distance,
+    reference_distance,
     view_consts,
     view_relation,
 )
@@ -276,7 +276,6 @@ class SqlManySteps:
         s = E.alias("s")
         centroid = (s.c.cx, s.c.cy, s.c.cz)
         base = [self.members(s.c.scene_id, s.c.id, *inputs[0])]
-        flat = metric is Metric.HORIZONTAL_DISTANCE
         if not metric.is_distance:
             lo, hi = (s.c.min_x, s.c.min_y, s.c.min_z), (s.c.max_x, s.c.max_y, s.c.max_z)
             value = metric_value(
@@ -285,7 +284,14 @@ class SqlManySteps:
             keyed = sa.select(s.c.scene_id, s.c.id, value.label("v")).where(*base)
         elif len(inputs) == 2:
             a = E.alias("a")
-            d = squared_distance(SQL, centroid, (a.c.cx, a.c.cy, a.c.cz), horizontal=flat)
+            d = reference_distance(
+                SQL,
+                metric.value,
+                centroid,
+                (a.c.cx, a.c.cy, a.c.cz),
+                (a.c.min_x, a.c.min_y, a.c.min_z),
+                (a.c.max_x, a.c.max_y, a.c.max_z),
+            )
             keyed = (
                 sa.select(s.c.scene_id, s.c.id, sa.func.min(d).label("v"))
                 .where(*base, a.c.scene_id == s.c.scene_id, a.c.id != s.c.id)
@@ -294,7 +300,8 @@ class SqlManySteps:
             )
         else:
             c = self.centre()
-            d = squared_distance(SQL, centroid, (c.c.x, c.c.y, c.c.z), horizontal=flat)
+            point = (c.c.x, c.c.y, c.c.z)
+            d = reference_distance(SQL, metric.value, centroid, point, point, point)
             keyed = (
                 sa.select(s.c.scene_id, s.c.id, d.label("v"))
                 .select_from(s.join(c, c.c.scene_id == s.c.scene_id))

@@ -18,7 +18,7 @@ from sqlalchemy.sql.elements import BinaryExpression, ColumnElement
 
 from graph_store import models as m
 from graph_store.types import RelationType
-from queries.model import Metric, Op, Step
+from queries.model import Op, Step
 from queries.semantics import (
     Algebra,
     QueryConfig,
@@ -29,7 +29,7 @@ from queries.semantics import (
     matching_categories,
     metric_value,
     rank_texts,
-    squared_distance,
+    reference_distance,
     view_consts,
     view_relation,
 )
@@ -340,7 +340,6 @@ class SqlSteps:
         s = self.entity("s")
         centroid = (s.c.cx, s.c.cy, s.c.cz)
         base = [s.c.scene_id == self.scene_id, self.members(s.c.id, *inputs[0])]
-        flat = metric is Metric.HORIZONTAL_DISTANCE
         if not metric.is_distance:
             lo, hi = (s.c.min_x, s.c.min_y, s.c.min_z), (s.c.max_x, s.c.max_y, s.c.max_z)
             keyed = sa.select(
@@ -351,7 +350,14 @@ class SqlSteps:
             ).where(*base)
         elif len(inputs) == 2:
             a = self.entity("a")
-            d = squared_distance(SQL, centroid, (a.c.cx, a.c.cy, a.c.cz), horizontal=flat)
+            d = reference_distance(
+                SQL,
+                metric.value,
+                centroid,
+                (a.c.cx, a.c.cy, a.c.cz),
+                (a.c.min_x, a.c.min_y, a.c.min_z),
+                (a.c.max_x, a.c.max_y, a.c.max_z),
+            )
             keyed = (
                 sa.select(s.c.id, sa.func.min(d).label("v"))
                 .where(*base, a.c.scene_id == self.scene_id, a.c.id != s.c.id)
@@ -360,7 +366,8 @@ class SqlSteps:
             )
         else:
             c = self.centre()
-            d = squared_distance(SQL, centroid, (c.c.x, c.c.y, c.c.z), horizontal=flat)
+            point = (c.c.x, c.c.y, c.c.z)
+            d = reference_distance(SQL, metric.value, centroid, point, point, point)
             keyed = sa.select(s.c.id, d.label("v")).select_from(s.join(c, sa.true())).where(*base)
         sub = keyed.subquery("keyed")
         order = sub.c.v.asc() if step.op is Op.ARGMIN else sub.c.v.desc()

@@ -81,8 +81,8 @@ def _check_inputs(i: int, step: Step, steps: tuple[Step, ...]) -> None:
         and not step.metric.is_distance
     ):
         raise QueryValidationError(
-            f"a second input (the reference set) is only used with metric 'distance' or"
-            f" 'horizontal_distance', not {step.metric.value!r}",
+            "a second input (the reference set) is only used with metric 'distance',"
+            f" 'horizontal_distance' or 'box_distance', not {step.metric.value!r}",
             step=i,
             field="inputs",
         )

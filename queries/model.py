@@ -100,7 +100,10 @@ class Metric(StrEnum):
     ``distance``: centroid distance to the nearest *other* member of the second input
     (without one: to the scene centre); ``horizontal_distance``: the same in the ``x``-``y``
     plane (heights ignored: "the picture above the bed" is the one most directly over
-    it); ``z`` / ``x`` / ``y``: centroid coordinate;
+    it); ``box_distance``: centroid distance to the nearest point of a member's bounding box
+    (0 inside it), for references that are surfaces more than points ("the chair against
+    the wall": a wall's centroid is metres from most of it); ``z`` / ``x`` / ``y``:
+    centroid coordinate;
     ``height``: vertical bounding-box extent; ``volume``: bounding-box volume;
     ``rightward``: how far to the right of the step's ``viewpoint`` (the observer at ``eye``
     looking at ``target``) the centroid lies, horizontally, so ``argmax`` is the rightmost
@@ -112,6 +115,7 @@ class Metric(StrEnum):
 
     DISTANCE = "distance"
     HORIZONTAL_DISTANCE = "horizontal_distance"
+    BOX_DISTANCE = "box_distance"
     Z = "z"
     HEIGHT = "height"
     VOLUME = "volume"
@@ -128,7 +132,7 @@ class Metric(StrEnum):
     @property
     def is_distance(self) -> bool:
         """Ranks by distance to a reference set (or the scene centre), not a value per entity."""
-        return self in (Metric.DISTANCE, Metric.HORIZONTAL_DISTANCE)
+        return self in (Metric.DISTANCE, Metric.HORIZONTAL_DISTANCE, Metric.BOX_DISTANCE)
 
 
 @dataclass(frozen=True, slots=True)

@@ -22,6 +22,10 @@ Geometry (world frame, scene units, ``z`` up; see :class:`Algebra`)
       ranks by the distance) to the nearest member of the reference set other than the
       entity itself; members with no such reference are dropped. Without a reference set:
       to the scene centre. ``horizontal_distance``: the same with ``dz`` left out.
+      ``box_distance``: the squared distance to the nearest point of the reference member's
+      bounding box from the entity's centroid ``c`` (per axis the gap
+      ``relu(lo - c) + relu(c - hi)`` with ``relu(a) = (a + abs(a)) * 0.5``; 0 inside the
+      box); to the scene centre without a reference set. See :func:`reference_distance`.
     * ``argmin`` / ``argmax``: sort by (metric ascending / descending, entity id ascending),
       keep the first ``k``. ``rightward`` (:func:`metric_value`): ``d·(f.y, -f.x)`` with
       ``f = target - eye`` of the step's viewpoint and ``d = centroid - eye``; ``forward``:
@@ -268,6 +272,44 @@ def squared_distance(
         return planar
     dz = alg.sub(p[2], q[2])
     return alg.add(planar, alg.mul(dz, dz))
+
+
+def reference_distance(
+    alg: Algebra[N, B],
+    metric: str,
+    p: tuple[N, N, N],
+    centroid: tuple[N, N, N],
+    lo: tuple[N, N, N],
+    hi: tuple[N, N, N],
+) -> N:
+    """What a distance metric ranks ``p`` by against one reference member (its ``centroid``
+    and bounding box ``lo``..``hi``; for the scene centre pass the centre as all three):
+    ``distance`` and ``horizontal_distance`` by :func:`squared_distance` to the centroid,
+    ``box_distance`` by the squared distance to the nearest point of the box.
+
+    >>> box = ((0.5, 0.5, 0.5), (0.0, 0.0, 0.0), (1.0, 1.0, 1.0))
+    >>> [reference_distance(PY, m, (3.0, 0.0, 0.5), *box)
+    ...  for m in ("distance", "horizontal_distance", "box_distance")]
+    [6.5, 6.5, 4.0]
+    """
+    if metric == "distance":
+        return squared_distance(alg, p, centroid)
+    if metric == "horizontal_distance":
+        return squared_distance(alg, p, centroid, horizontal=True)
+    if metric != "box_distance":
+        raise ValueError(f"metric {metric!r} is not a distance")
+    half = alg.const(0.5)
+    total: N | None = None
+    for axis in range(3):
+        below, above = alg.sub(lo[axis], p[axis]), alg.sub(p[axis], hi[axis])
+        gap = alg.add(
+            alg.mul(alg.add(below, alg.abs(below)), half),
+            alg.mul(alg.add(above, alg.abs(above)), half),
+        )
+        square = alg.mul(gap, gap)
+        total = square if total is None else alg.add(total, square)
+    assert total is not None
+    return total
 
 
 def metric_value(

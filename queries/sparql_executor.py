@@ -51,7 +51,7 @@ from queries.semantics import (
     matching_categories,
     metric_value,
     rank_texts,
-    squared_distance,
+    reference_distance,
     support_paths,
     view_consts,
     view_relation,
@@ -285,7 +285,6 @@ class _SparqlRun:
         metric = step.metric
         assert metric is not None
         centroid = ("?e_centroidX", "?e_centroidY", "?e_centroidZ")
-        flat = metric is Metric.HORIZONTAL_DISTANCE
         if not metric.is_distance:
             lo, hi = ("?e_minX", "?e_minY", "?e_minZ"), ("?e_maxX", "?e_maxY", "?e_maxZ")
             value = metric_value(
@@ -296,15 +295,18 @@ class _SparqlRun:
         elif len(ins) == 2:
             a_xyz = ("?a_centroidX", "?a_centroidY", "?a_centroidZ")
             pairs = self.located("e", 0, ins[0], "localId", *XYZ)
-            pairs += self.located("a", 1, ins[1], *XYZ)
-            d = squared_distance(SPARQL, centroid, a_xyz, horizontal=flat)
+            boxed = metric is Metric.BOX_DISTANCE  # the anchor's box only when it is used
+            pairs += self.located("a", 1, ins[1], *XYZ, *(BOX if boxed else ()))
+            a_lo, a_hi = ("?a_minX", "?a_minY", "?a_minZ"), ("?a_maxX", "?a_maxY", "?a_maxZ")
+            d = reference_distance(SPARQL, metric.value, centroid, a_xyz, a_lo, a_hi)
             keyed = (  # BOUND: see _match_text
                 f"{{ SELECT ?e ?e_localId (MIN({d}) AS ?v) WHERE {{\n{pairs}FILTER (?e != ?a)\n}}"
                 " GROUP BY ?e ?e_localId }\nFILTER (BOUND(?e))\n"
             )
         else:
             c = tuple(double(x) for x in self.x.centre())
-            d = squared_distance(SPARQL, centroid, (c[0], c[1], c[2]), horizontal=flat)
+            point = (c[0], c[1], c[2])
+            d = reference_distance(SPARQL, metric.value, centroid, point, point, point)
             keyed = f"{self.located('e', 0, ins[0], 'localId', *XYZ)}BIND ({d} AS ?v)\n"
         order = "?v" if step.op is Op.ARGMIN else "DESC(?v)"
         text = (

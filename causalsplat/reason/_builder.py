@@ -18,6 +18,12 @@ from queries.model import MAX_SET_INPUTS
 
 SCENE = 0
 
+#: Ops whose result is a subset of their first input.
+_KEEPS_FIRST = frozenset({
+    Op.FILTER_CATEGORY, Op.FILTER_ATTRIBUTE, Op.FILTER_AFFORDANCE, Op.RELATE,
+    Op.RELATE_BETWEEN, Op.ARGMIN, Op.ARGMAX, Op.INTERSECT, Op.DIFFERENCE,
+})  # fmt: skip
+
 
 class ProgramBuilder:
     """Steps of a program under construction, with their values on one scene."""
@@ -66,6 +72,30 @@ class ProgramBuilder:
             chunks = [unique[i : i + MAX_SET_INPUTS] for i in range(0, len(unique), MAX_SET_INPUTS)]
             unique = [c[0] if len(c) == 1 else self.add(Op.UNION, *sorted(c)) for c in chunks]
         return unique[0]
+
+    def categories(self, index: int) -> frozenset[str] | None:
+        """The categories step ``index`` can hold, read from the program without running it
+        (``None``: any category). A category filter names one; a union joins its inputs';
+        the steps that keep members of their first input keep its categories."""
+        step = self.steps[index]
+        op = Op(step["op"])
+        if op is Op.FILTER_CATEGORY:
+            return frozenset({step["value"]})
+        if op is Op.UNION:
+            parts = [self.categories(i) for i in step["inputs"]]
+            return None if any(p is None for p in parts) else frozenset().union(*parts)
+        if op in _KEEPS_FIRST:
+            return self.categories(step["inputs"][0])
+        return None
+
+    def distance_to(self, anchor: int) -> Metric:
+        """The metric for "closest to / farthest from" the anchor: ``box_distance`` when the
+        anchor holds only structure (a wall, the floor: its centroid may be metres from the
+        part beside the object), ``distance`` (centroids) otherwise."""
+        categories = self.categories(anchor)
+        if categories and all(self.ctx.config.is_structural(c) for c in categories):
+            return Metric.BOX_DISTANCE
+        return Metric.DISTANCE
 
     def value(self, index: int) -> tuple[int, ...]:
         """The entity ids step ``index`` selects (sorted)."""

@@ -52,6 +52,7 @@ class Decision:
 _CLOSEST_TO = {
     Metric.DISTANCE: "the anchor",
     Metric.HORIZONTAL_DISTANCE: "the anchor, horizontally",
+    Metric.BOX_DISTANCE: "the anchor's surface",
 }
 
 
@@ -123,7 +124,7 @@ def _need(b: ProgramBuilder, planner: Planner, grounded: Grounded) -> tuple[int,
             if b.size(out.step) == 0:
                 if _definite(grounded.instruction) and out.anchor is not None:
                     b.note(f"nothing fits the relation {constraint.kind!r}; took the closest")
-                    step = b.add(Op.ARGMIN, step, out.anchor, metric=Metric.DISTANCE)
+                    step = b.add(Op.ARGMIN, step, out.anchor, metric=b.distance_to(out.anchor))
                     related = True
                 else:
                     b.note(f"nothing fits the relation {constraint.kind!r}; it was not used")
@@ -149,7 +150,7 @@ def _closest_if_singular(b: ProgramBuilder, ins: Instruction, out: Planned) -> i
     closest to the anchor; "something to sit on near the table": every one that fits."""
     if _definite(ins) and out.anchor is not None and b.size(out.step) > 1:
         b.note(f"{b.size(out.step)} fit; took the one closest to the anchor")
-        return b.add(Op.ARGMIN, out.step, out.anchor, metric=Metric.DISTANCE)
+        return b.add(Op.ARGMIN, out.step, out.anchor, metric=b.distance_to(out.anchor))
     return out.step
 
 
@@ -169,8 +170,9 @@ def _referring(b: ProgramBuilder, planner: Planner, grounded: Grounded) -> tuple
     if singular and b.size(step) > 1:
         n = b.size(step)
         if planned.anchor is not None:
-            metric = Metric.HORIZONTAL_DISTANCE if planned.vertical else Metric.DISTANCE
-            step = b.add(Op.ARGMIN, step, planned.anchor, metric=metric)
+            anchor = planned.anchor
+            metric = Metric.HORIZONTAL_DISTANCE if planned.vertical else b.distance_to(anchor)
+            step = b.add(Op.ARGMIN, step, anchor, metric=metric)
             what = _CLOSEST_TO.get(metric, "both anchors")
             b.note(f"{n} candidates fit; took the one closest to {what}")
         else:

@@ -423,7 +423,7 @@ class Planner:
                 self.b.note(f"every candidate is {_WORDS.get(c.kind, c.kind)} it; took the"
                             " farthest instead")  # fmt: skip
                 anchor = a[0] if len(a) == 1 else self.b.union(a)
-                out = self.b.add(Op.ARGMAX, step, anchor, metric=Metric.DISTANCE)
+                out = self.b.add(Op.ARGMAX, step, anchor, metric=self.b.distance_to(anchor))
             return Planned(out, None)
         anchor = a[0] if len(a) == 1 else self.b.union(a)
         if singular and anchor == step and self.b.size(related) == 0:
@@ -439,16 +439,16 @@ class Planner:
     ) -> int:
         b = self.b
         if kind in ("closest", "farthest"):
-            op = Op.ARGMIN if kind == "closest" else Op.ARGMAX
+            op, metric = Op.ARGMIN if kind == "closest" else Op.ARGMAX, b.distance_to(a[0])
             if nth <= 1 or b.size(step) < nth:
-                return b.add(op, step, a[0], metric=Metric.DISTANCE)
-            upto = b.add(op, step, a[0], metric=Metric.DISTANCE, k=nth)
-            before = b.add(op, step, a[0], metric=Metric.DISTANCE, k=nth - 1)
+                return b.add(op, step, a[0], metric=metric)
+            upto = b.add(op, step, a[0], metric=metric, k=nth)
+            before = b.add(op, step, a[0], metric=metric, k=nth - 1)
             return b.add(Op.DIFFERENCE, upto, before)
         if kind == "opposite":
             return self._opposite(step, a[0], singular=singular, selectors=selectors)
         if kind == "near" and singular and not selectors:
-            return b.add(Op.ARGMIN, step, a[0], metric=Metric.DISTANCE)
+            return b.add(Op.ARGMIN, step, a[0], metric=b.distance_to(a[0]))
         if kind == "between":
             # "between the two chairs": one anchor set whose members are both ends (an
             # entity is never between an anchor and itself, so A x A pairs distinct ends).
@@ -488,7 +488,9 @@ class Planner:
         b = self.b
         if not singular or b.size(out) > 0:
             return out
-        closest = None if selectors else b.add(Op.ARGMIN, step, anchor, metric=Metric.DISTANCE)
+        closest = (
+            None if selectors else b.add(Op.ARGMIN, step, anchor, metric=b.distance_to(anchor))
+        )
         if closest is None or (b.size(closest) == 0 and b.size(step) > 0):
             # with its own selector; or when every anchor is a candidate itself ("the trash
             # can left of another trash can" when the words leave one trash can: nothing
@@ -533,7 +535,8 @@ class Planner:
             b.note("nothing lies strictly between them; took what is near both")
             return near
         b.note("nothing lies between them; took the closest to either")
-        return b.add(Op.ARGMIN, step, b.union([a1, a2]), metric=Metric.DISTANCE)
+        either = b.union([a1, a2])
+        return b.add(Op.ARGMIN, step, either, metric=b.distance_to(either))
 
     # -- viewpoints and modifiers ------------------------------------------------------
 

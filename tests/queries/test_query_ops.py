@@ -220,6 +220,37 @@ def test_sql_reads_the_scene_ids_again_after_the_scene_is_saved_again(
             sql.run(program)
 
 
+def test_box_distance_measures_to_the_reference_surface(make_any: MakeExecutor) -> None:
+    """A wall 6 m long: the chair against its end is metres from its centroid but 0.35 m from
+    the wall; a picture hung on it is inside its box (0)."""
+    wall = Entity(3, "wall", (0.0, 2.0, 1.25), (-3.0, 1.95, 0.0), (3.0, 2.05, 2.5))
+    ents = (
+        box(1, "thing", 2.5, 1.6, 0.45),  # against the wall's end: centroid 7.05, box 0.1225
+        box(2, "thing", 0.0, 0.5, 0.45),  # 1.45 m out from its middle: 2.89, box 2.1025
+        wall,
+        box(4, "thing", -2.0, 2.0, 1.5),  # on the wall: 4.0625, box 0 (inside)
+        box(5, "thing", 5.0, 2.0, 0.45),  # past its end, in line: 25.64, box 4.0
+    )
+    executor = make_any(SceneGraph(SceneMeta("boxed"), ents))
+    head = 'query spatial\nv0 = scene()\nv1 = filter_category(v0, "wall")\n'
+    head += 'v2 = filter_category(v0, "thing")\n'
+    cases = [
+        ("v3 = argmin(v2, v1, distance)", (2,)),
+        ("v3 = argmin(v2, v1, box_distance)", (4,)),
+        ("v3 = argmin(v2, v1, box_distance, k=2)", (1, 4)),
+        ("v3 = argmin(v2, v1, box_distance, k=3)", (1, 2, 4)),
+        ("v3 = argmax(v2, v1, box_distance)", (5,)),
+        # the wall itself is not its own reference: 'walls closest to the wall' keep the others
+        ("v3 = argmin(v1, v1, box_distance)", ()),
+        # no reference set: to the scene centre (1.125, 1.25, 1.25), a point, as 'distance'
+        ("v3 = argmin(v2, box_distance)", (2,)),
+        ("v3 = argmin(v2, distance)", (2,)),
+        ("v3 = argmax(v2, box_distance, k=2)", (4, 5)),
+    ]
+    for body, expected in cases:
+        assert executor.run(GraphQuery.from_text(head + body)).answer == expected, body
+
+
 def test_horizontal_distance_ignores_height(make_any: MakeExecutor) -> None:
     """A lamp hung 5 m over the anchor is horizontally nearest; a cup beside it is nearest in 3D."""
     ents = (
