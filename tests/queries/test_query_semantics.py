@@ -4,6 +4,8 @@ IEEE-754 answers as Python; SPARQL literal escaping."""
 
 from __future__ import annotations
 
+from fractions import Fraction
+
 import pyoxigraph as ox
 import pytest
 import rdflib
@@ -20,6 +22,7 @@ from queries.semantics import (
     between,
     normalise_text,
     rank_texts,
+    reference_distance,
     split_attribute,
     squared_distance,
     text_similarity,
@@ -151,6 +154,33 @@ def _q3(
     p: tuple[float, float, float],
 ) -> tuple[sa.ColumnElement[float], sa.ColumnElement[float], sa.ColumnElement[float]]:
     return (SQL.const(p[0]), SQL.const(p[1]), SQL.const(p[2]))
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    st.tuples(finite, finite, finite), st.lists(st.tuples(finite, finite), min_size=3, max_size=3)
+)
+def test_box_distance_agrees_across_engines_and_with_exact_arithmetic(
+    p: tuple[float, float, float], spans: list[tuple[float, float]]
+) -> None:
+    lo = (min(spans[0]), min(spans[1]), min(spans[2]))
+    hi = (max(spans[0]), max(spans[1]), max(spans[2]))
+    mid = ((lo[0] + hi[0]) * 0.5, (lo[1] + hi[1]) * 0.5, (lo[2] + hi[2]) * 0.5)
+    got = reference_distance(PY, "box_distance", p, mid, lo, hi)
+    # exact: the squared distance to the nearest point of the box, in rationals
+    gaps = [max(Fraction(a) - Fraction(c), Fraction(0), Fraction(c) - Fraction(b))
+            for c, a, b in zip(p, lo, hi, strict=True)]  # fmt: skip
+    exact = sum(g * g for g in gaps)
+    # a subtraction, a square and two additions: a few ulps; squares of tiny gaps underflow
+    assert abs(Fraction(got) - exact) <= Fraction(8, 2**53) * exact + Fraction(2.3e-308)
+    sql = reference_distance(SQL, "box_distance", _q3(p), _q3(mid), _q3(lo), _q3(hi))
+    assert _sqlite(sql) == got
+
+    def d3(v: tuple[float, ...]) -> tuple[str, str, str]:
+        return (double(v[0]), double(v[1]), double(v[2]))
+
+    ox_d, rd_d = _sparql(reference_distance(SPARQL, "box_distance", d3(p), d3(mid), d3(lo), d3(hi)))
+    assert float(str(ox_d)) == got and rd_d == got
 
 
 @settings(max_examples=100, deadline=None)
