@@ -23,7 +23,7 @@ from sqlalchemy.engine import Connection
 
 from graph_store import models as m
 from graph_store.types import RelationType
-from queries._sql_steps import ATTR, NO_RANK, REL, SQL, Cond, E
+from queries._sql_steps import ATTR, NO_RANK, REL, SQL, Cond, E, located
 from queries.model import Op, Step
 from queries.semantics import (
     QueryConfig,
@@ -284,14 +284,7 @@ class SqlManySteps:
             keyed = sa.select(s.c.scene_id, s.c.id, value.label("v")).where(*base)
         elif len(inputs) == 2:
             a = E.alias("a")
-            d = reference_distance(
-                SQL,
-                metric.value,
-                centroid,
-                (a.c.cx, a.c.cy, a.c.cz),
-                (a.c.min_x, a.c.min_y, a.c.min_z),
-                (a.c.max_x, a.c.max_y, a.c.max_z),
-            )
+            d = reference_distance(SQL, metric.value, centroid, *located(a))
             keyed = (
                 sa.select(s.c.scene_id, s.c.id, sa.func.min(d).label("v"))
                 .where(*base, a.c.scene_id == s.c.scene_id, a.c.id != s.c.id)

@@ -35,10 +35,18 @@ from queries.semantics import (
 )
 
 E, ATTR, REL = m.entities, m.entity_attributes, m.relations
+
+
 Num = ColumnElement[Any]
 Cond = ColumnElement[bool]
 #: Rank given to texts that do not match in ``match_text`` (larger than any real rank).
 NO_RANK = 2_000_000_000
+
+
+def located(t: Any) -> tuple[tuple[Any, Any, Any], tuple[Any, Any, Any], tuple[Any, Any, Any]]:
+    """An entities table's (or alias's) centroid, box minimum and box maximum columns."""
+    c = t.c
+    return (c.cx, c.cy, c.cz), (c.min_x, c.min_y, c.min_z), (c.max_x, c.max_y, c.max_z)
 
 
 class SqlAlgebra(Algebra[Num, Cond]):
@@ -350,14 +358,7 @@ class SqlSteps:
             ).where(*base)
         elif len(inputs) == 2:
             a = self.entity("a")
-            d = reference_distance(
-                SQL,
-                metric.value,
-                centroid,
-                (a.c.cx, a.c.cy, a.c.cz),
-                (a.c.min_x, a.c.min_y, a.c.min_z),
-                (a.c.max_x, a.c.max_y, a.c.max_z),
-            )
+            d = reference_distance(SQL, metric.value, centroid, *located(a))
             keyed = (
                 sa.select(s.c.id, sa.func.min(d).label("v"))
                 .where(*base, a.c.scene_id == self.scene_id, a.c.id != s.c.id)

@@ -7,26 +7,12 @@ for these tests.
 
 from __future__ import annotations
 
-from typing import Any
-
-from causalsplat.objects import objects_to_scene_graph, parse_objects
 from causalsplat.reason import SceneContext
 from causalsplat.reason.offline import OfflineReasoner
 from queries import Metric
+from tests.causalsplat.reason.rooms import room_of_boxes as _room
 
 REASONER = OfflineReasoner(embeddings=False)
-
-
-def _room(objects: list[tuple[int, str, tuple[float, float, float], tuple[float, float, float]]]
-          ) -> SceneContext:  # fmt: skip
-    doc: dict[str, Any] = {
-        "scene_id": "room",
-        "objects": [
-            {"id": i, "label": label, "center": list(c), "size": list(s)}
-            for i, label, c, s in objects
-        ],
-    }
-    return SceneContext(objects_to_scene_graph(parse_objects(doc)))
 
 
 FLOOR = (0, "floor", (0.0, 0.0, -0.05), (8.0, 8.0, 0.1))

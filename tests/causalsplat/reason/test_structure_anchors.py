@@ -10,29 +10,17 @@ from __future__ import annotations
 
 from typing import Any
 
-from causalsplat.objects import objects_to_scene_graph, parse_objects
-from causalsplat.reason import SceneContext
 from causalsplat.reason._builder import SCENE, ProgramBuilder
 from causalsplat.reason.offline import OfflineReasoner
 from queries import Metric, Op
+from tests.causalsplat.reason.rooms import Box
+from tests.causalsplat.reason.rooms import room_of_boxes as _room
 
 REASONER = OfflineReasoner(embeddings=False)
 
-Obj = tuple[int, str, tuple[float, float, float], tuple[float, float, float]]
-FLOOR: Obj = (0, "floor", (0.0, 0.0, -0.05), (8.0, 8.0, 0.1))
-NORTH_WALL: Obj = (1, "wall", (0.0, 3.95, 1.25), (8.0, 0.1, 2.5))
+FLOOR: Box = (0, "floor", (0.0, 0.0, -0.05), (8.0, 8.0, 0.1))
+NORTH_WALL: Box = (1, "wall", (0.0, 3.95, 1.25), (8.0, 0.1, 2.5))
 CHAIR = (0.5, 0.5, 0.9)
-
-
-def _room(objects: list[Obj]) -> SceneContext:
-    doc: dict[str, Any] = {
-        "scene_id": "room",
-        "objects": [
-            {"id": i, "label": label, "center": list(c), "size": list(s)}
-            for i, label, c, s in objects
-        ],
-    }
-    return SceneContext(objects_to_scene_graph(parse_objects(doc)))
 
 
 def _metrics(answer: Any) -> set[Metric]:
