@@ -166,6 +166,7 @@ class InMemoryExecutor(Executor):
         assert metric is not None
         sign = 1.0 if step.op is Op.ARGMIN else -1.0
         keyed: list[tuple[float, int]] = []
+        reference = [(a, self._entity(a)) for a in ins[1]] if len(ins) == 2 else []
         for x in ins[0]:
             e = self._entity(x)
             if not metric.is_distance:
@@ -178,12 +179,12 @@ class InMemoryExecutor(Executor):
                     view_consts(PY, step.viewpoint),
                 )
             elif len(ins) == 2:
-                refs = [self._entity(a) for a in ins[1] if a != x]
                 others = [
                     reference_distance(
                         PY, metric.value, e.centroid, r.centroid, r.bbox_min, r.bbox_max
                     )
-                    for r in refs
+                    for a, r in reference
+                    if a != x
                 ]
                 if not others:
                     continue

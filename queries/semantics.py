@@ -299,17 +299,15 @@ def reference_distance(
     if metric != "box_distance":
         raise ValueError(f"metric {metric!r} is not a distance")
     half = alg.const(0.5)
-    total: N | None = None
+    squares = []
     for axis in range(3):
         below, above = alg.sub(lo[axis], p[axis]), alg.sub(p[axis], hi[axis])
         gap = alg.add(
             alg.mul(alg.add(below, alg.abs(below)), half),
             alg.mul(alg.add(above, alg.abs(above)), half),
         )
-        square = alg.mul(gap, gap)
-        total = square if total is None else alg.add(total, square)
-    assert total is not None
-    return total
+        squares.append(alg.mul(gap, gap))
+    return alg.add(alg.add(squares[0], squares[1]), squares[2])
 
 
 def metric_value(
