@@ -96,6 +96,9 @@ class SparqlAlgebra(Algebra[str, str]):
     def all(self, *conditions: str) -> str:
         return "(" + " && ".join(conditions) + ")"
 
+    def select(self, condition: str, a: str, b: str) -> str:
+        return f"IF({condition}, {a}, {b})"
+
 
 SPARQL = SparqlAlgebra()
 

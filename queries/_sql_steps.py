@@ -93,6 +93,9 @@ class SqlAlgebra(Algebra[Num, Cond]):
     def all(self, *conditions: Cond) -> Cond:
         return sa.and_(*conditions)
 
+    def select(self, condition: Cond, a: Num, b: Num) -> Num:
+        return sa.case((condition, a), else_=b)
+
 
 SQL = SqlAlgebra()
 

@@ -81,8 +81,9 @@ def _check_inputs(i: int, step: Step, steps: tuple[Step, ...]) -> None:
         and not step.metric.is_distance
     ):
         raise QueryValidationError(
-            "a second input (the reference set) is only used with metric 'distance',"
-            f" 'horizontal_distance' or 'box_distance', not {step.metric.value!r}",
+            "a second input (the reference set) is only used with a distance metric ("
+            + ", ".join(repr(m.value) for m in type(step.metric) if m.is_distance)
+            + f"), not {step.metric.value!r}",
             step=i,
             field="inputs",
         )

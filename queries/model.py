@@ -102,7 +102,11 @@ class Metric(StrEnum):
     plane (heights ignored: "the picture above the bed" is the one most directly over
     it); ``box_distance``: centroid distance to the nearest point of a member's bounding box
     (0 inside it), for references that are surfaces more than points ("the chair against
-    the wall": a wall's centroid is metres from most of it); ``z`` / ``x`` / ``y``:
+    the wall": a wall's centroid is metres from most of it); ``end_distance`` /
+    ``corner_distance``: horizontal centroid distance to the middle of the nearest end (one
+    of the two shorter edges) / to the nearest corner of a member's bounding-box footprint
+    ("the chair at the end of the table", "the stool at the corner of the counter");
+    ``z`` / ``x`` / ``y``:
     centroid coordinate;
     ``height``: vertical bounding-box extent; ``volume``: bounding-box volume;
     ``rightward``: how far to the right of the step's ``viewpoint`` (the observer at ``eye``
@@ -116,6 +120,8 @@ class Metric(StrEnum):
     DISTANCE = "distance"
     HORIZONTAL_DISTANCE = "horizontal_distance"
     BOX_DISTANCE = "box_distance"
+    END_DISTANCE = "end_distance"
+    CORNER_DISTANCE = "corner_distance"
     Z = "z"
     HEIGHT = "height"
     VOLUME = "volume"
@@ -132,7 +138,18 @@ class Metric(StrEnum):
     @property
     def is_distance(self) -> bool:
         """Ranks by distance to a reference set (or the scene centre), not a value per entity."""
-        return self in (Metric.DISTANCE, Metric.HORIZONTAL_DISTANCE, Metric.BOX_DISTANCE)
+        return self in (
+            Metric.DISTANCE,
+            Metric.HORIZONTAL_DISTANCE,
+            Metric.BOX_DISTANCE,
+            Metric.END_DISTANCE,
+            Metric.CORNER_DISTANCE,
+        )
+
+    @property
+    def uses_box(self) -> bool:
+        """Measures to a reference member's bounding box, not to its centroid."""
+        return self in (Metric.BOX_DISTANCE, Metric.END_DISTANCE, Metric.CORNER_DISTANCE)
 
 
 @dataclass(frozen=True, slots=True)

@@ -215,6 +215,9 @@ class Algebra(ABC, Generic[N, B]):
     def ge(self, a: N, b: N) -> B: ...
     @abstractmethod
     def all(self, *conditions: B) -> B: ...
+    @abstractmethod
+    def select(self, condition: B, a: N, b: N) -> N:
+        """``a`` where ``condition`` holds, else ``b`` (no arithmetic: the chosen double)."""
 
 
 class PyAlgebra(Algebra[float, bool]):
@@ -253,6 +256,9 @@ class PyAlgebra(Algebra[float, bool]):
     def all(self, *conditions: bool) -> bool:
         return all(conditions)
 
+    def select(self, condition: bool, a: float, b: float) -> float:
+        return a if condition else b
+
 
 PY = PyAlgebra()
 
@@ -285,29 +291,51 @@ def reference_distance(
     """What a distance metric ranks ``p`` by against one reference member (its ``centroid``
     and bounding box ``lo``..``hi``; for the scene centre pass the centre as all three):
     ``distance`` and ``horizontal_distance`` by :func:`squared_distance` to the centroid,
-    ``box_distance`` by the squared distance to the nearest point of the box.
+    ``box_distance`` by the squared distance to the nearest point of the box;
+    ``end_distance`` and ``corner_distance`` horizontally, to the middle of the nearest end
+    (one of the two shorter edges) and to the nearest corner of the box's footprint (its
+    ``x``-``y`` rectangle; a square's ends are its edges across ``x``).
 
     >>> box = ((0.5, 0.5, 0.5), (0.0, 0.0, 0.0), (1.0, 1.0, 1.0))
     >>> [reference_distance(PY, m, (3.0, 0.0, 0.5), *box)
     ...  for m in ("distance", "horizontal_distance", "box_distance")]
     [6.5, 6.5, 4.0]
+    >>> table = ((1.0, 0.5, 0.4), (0.0, 0.0, 0.0), (2.0, 1.0, 0.8))  # long along x
+    >>> [reference_distance(PY, m, p, *table)
+    ...  for m in ("end_distance", "corner_distance") for p in ((2.5, 0.5, 0.4), (1.0, 1.5, 0.4))]
+    [0.25, 2.0, 0.5, 1.25]
     """
     if metric == "distance":
         return squared_distance(alg, p, centroid)
     if metric == "horizontal_distance":
         return squared_distance(alg, p, centroid, horizontal=True)
-    if metric != "box_distance":
-        raise ValueError(f"metric {metric!r} is not a distance")
     half = alg.const(0.5)
-    squares = []
-    for axis in range(3):
-        below, above = alg.sub(lo[axis], p[axis]), alg.sub(p[axis], hi[axis])
-        gap = alg.add(
-            alg.mul(alg.add(below, alg.abs(below)), half),
-            alg.mul(alg.add(above, alg.abs(above)), half),
-        )
-        squares.append(alg.mul(gap, gap))
-    return alg.add(alg.add(squares[0], squares[1]), squares[2])
+    if metric == "box_distance":
+        squares = []
+        for axis in range(3):
+            below, above = alg.sub(lo[axis], p[axis]), alg.sub(p[axis], hi[axis])
+            gap = alg.add(
+                alg.mul(alg.add(below, alg.abs(below)), half),
+                alg.mul(alg.add(above, alg.abs(above)), half),
+            )
+            squares.append(alg.mul(gap, gap))
+        return alg.add(alg.add(squares[0], squares[1]), squares[2])
+    if metric not in ("end_distance", "corner_distance"):
+        raise ValueError(f"metric {metric!r} is not a distance")
+    # per horizontal axis: how far p lies from the footprint's nearer edge across that axis
+    # (negative between the two edges), and from the footprint's middle line along it
+    edge, middle = [], []
+    for axis in (0, 1):
+        mid = alg.mul(alg.add(lo[axis], hi[axis]), half)
+        off = alg.abs(alg.sub(p[axis], mid))
+        e = alg.sub(off, alg.mul(alg.sub(hi[axis], lo[axis]), half))
+        edge.append(alg.mul(e, e))
+        middle.append(alg.mul(off, off))
+    if metric == "corner_distance":
+        return alg.add(edge[0], edge[1])
+    # the ends are the edges across the long axis; measured to the nearer one's midpoint
+    long_x = alg.ge(alg.sub(hi[0], lo[0]), alg.sub(hi[1], lo[1]))
+    return alg.select(long_x, alg.add(edge[0], middle[1]), alg.add(middle[0], edge[1]))
 
 
 def metric_value(

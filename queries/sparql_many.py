@@ -64,7 +64,7 @@ from queries._sparql_steps import (
     sub_select,
     values,
 )
-from queries.model import GraphQuery, Metric, Op, Step
+from queries.model import GraphQuery, Op, Step
 from queries.result import QueryResult
 from queries.semantics import (
     DEFAULT_CONFIG,
@@ -360,7 +360,7 @@ class _ManyRun:
         elif len(ins) == 2:
             a_xyz = ("?a_centroidX", "?a_centroidY", "?a_centroidZ")
             pairs = self.located("e", 0, ins, live, "localId", *XYZ)
-            boxed = metric is Metric.BOX_DISTANCE  # the anchor's box only when it is used
+            boxed = metric.uses_box  # the anchor's box only when it is used
             pairs += self.located("a", 1, ins, live, *XYZ, *(BOX if boxed else ()))
             a_lo, a_hi = ("?a_minX", "?a_minY", "?a_minZ"), ("?a_maxX", "?a_maxY", "?a_maxZ")
             d = reference_distance(SPARQL, metric.value, centroid, a_xyz, a_lo, a_hi)

@@ -251,6 +251,40 @@ def test_box_distance_measures_to_the_reference_surface(make_any: MakeExecutor) 
         assert executor.run(GraphQuery.from_text(head + body)).answer == expected, body
 
 
+def test_end_and_corner_distance_measure_to_the_footprint(make_any: MakeExecutor) -> None:
+    """A table long along x and a desk long along y: "the chair at the end of the table" is
+    the one by the middle of a short edge, "at the corner" the one by a corner, "closest"
+    the one by the middle of a long side."""
+    ents = (
+        Entity(1, "table", (0.0, 0.0, 0.4), (-1.0, -0.5, 0.0), (1.0, 0.5, 0.8)),
+        Entity(2, "desk", (6.0, 0.0, 0.4), (5.6, -1.0, 0.0), (6.4, 1.0, 0.8)),
+        box(10, "chair", 1.4, 0.0, 0.45),  # table: end 0.16, corner 0.41, centroid 1.96
+        box(11, "chair", 0.8, 0.85, 0.45),  # table: end 0.7625, corner 0.1625, 1.3625
+        box(12, "chair", 0.0, -0.9, 0.45),  # table: end 1.81, corner 1.16, centroid 0.81
+        box(13, "chair", 6.0, 1.35, 0.45),  # desk: end 0.1225, corner 0.2825, 1.8225
+        box(14, "chair", 6.75, 0.0, 0.45),  # desk: end 1.5625, corner 1.1225, 0.5625
+    )
+    executor = make_any(SceneGraph(SceneMeta("footprints"), ents))
+    head = 'query spatial\nv0 = scene()\nv1 = filter_category(v0, "table")\n'
+    head += 'v2 = filter_category(v0, "chair")\nv3 = filter_category(v0, "desk")\n'
+    cases = [
+        ("v4 = argmin(v2, v1, distance)", (12,)),
+        ("v4 = argmin(v2, v1, end_distance)", (10,)),
+        ("v4 = argmin(v2, v1, end_distance, k=2)", (10, 11)),
+        ("v4 = argmin(v2, v1, corner_distance)", (11,)),
+        ("v4 = argmin(v2, v1, corner_distance, k=2)", (10, 11)),
+        ("v4 = argmax(v2, v1, end_distance)", (14,)),
+        # the desk runs along y: its ends are across y
+        ("v4 = argmin(v2, v3, distance)", (14,)),
+        ("v4 = argmin(v2, v3, end_distance)", (13,)),
+        ("v4 = argmin(v2, v3, corner_distance)", (13,)),
+        # several references: the nearest end of any of them
+        ("v4 = union(v1, v3)\nv5 = argmin(v2, v4, end_distance, k=2)", (10, 13)),
+    ]
+    for body, expected in cases:
+        assert executor.run(GraphQuery.from_text(head + body)).answer == expected, body
+
+
 def test_horizontal_distance_ignores_height(make_any: MakeExecutor) -> None:
     """A lamp hung 5 m over the anchor is horizontally nearest; a cup beside it is nearest in 3D."""
     ents = (

@@ -183,6 +183,52 @@ def test_box_distance_agrees_across_engines_and_with_exact_arithmetic(
     assert float(str(ox_d)) == got and rd_d == got
 
 
+@settings(max_examples=60, deadline=None)
+@given(
+    st.tuples(finite, finite, finite),
+    st.lists(st.tuples(finite, finite), min_size=3, max_size=3),
+    st.sampled_from(["end_distance", "corner_distance"]),
+)
+def test_footprint_distances_agree_across_engines_and_with_exact_arithmetic(
+    p: tuple[float, float, float], spans: list[tuple[float, float]], metric: str
+) -> None:
+    lo = (min(spans[0]), min(spans[1]), min(spans[2]))
+    hi = (max(spans[0]), max(spans[1]), max(spans[2]))
+    mid = ((lo[0] + hi[0]) * 0.5, (lo[1] + hi[1]) * 0.5, (lo[2] + hi[2]) * 0.5)
+    got = reference_distance(PY, metric, p, mid, lo, hi)
+    # exact, in rationals: per horizontal axis the offset from the nearer edge line and from
+    # the middle line; the long axis is chosen as the doubles compare the two extents
+    edge, middle = [], []
+    for axis in (0, 1):
+        a, b, c = Fraction(lo[axis]), Fraction(hi[axis]), Fraction(p[axis])
+        off = abs(c - (a + b) / 2)
+        edge.append(off - (b - a) / 2)
+        middle.append(off)
+    if metric == "corner_distance":
+        parts = (edge[0], edge[1])
+    elif hi[0] - lo[0] >= hi[1] - lo[1]:
+        parts = (edge[0], middle[1])
+    else:
+        parts = (middle[0], edge[1])
+    exact = parts[0] ** 2 + parts[1] ** 2
+    # each offset is a few roundings of numbers up to m in size, and may cancel: its error
+    # is bounded by the inputs' size, not its own (8 ulps of m, generously); squares of
+    # tiny offsets underflow
+    eps = Fraction(1, 2**52)
+    m = max(Fraction(abs(v)) for v in (*p[:2], *lo[:2], *hi[:2]))
+    delta = 8 * eps * m
+    bound = sum(2 * abs(x) * delta + delta * delta for x in parts) + 8 * eps * exact
+    assert abs(Fraction(got) - exact) <= bound + Fraction(2.3e-308)
+    sql = reference_distance(SQL, metric, _q3(p), _q3(mid), _q3(lo), _q3(hi))
+    assert _sqlite(sql) == got
+
+    def d3(v: tuple[float, ...]) -> tuple[str, str, str]:
+        return (double(v[0]), double(v[1]), double(v[2]))
+
+    ox_d, rd_d = _sparql(reference_distance(SPARQL, metric, d3(p), d3(mid), d3(lo), d3(hi)))
+    assert float(str(ox_d)) == got and rd_d == got
+
+
 @settings(max_examples=100, deadline=None)
 @given(st.text(st.characters(blacklist_categories=("Cs",), blacklist_characters="\x00")))
 def test_sparql_literals_read_back_exactly(text: str) -> None:
