@@ -30,6 +30,13 @@ CUE_PATTERNS: tuple[tuple[str, str], ...] = (
                      r"(?: of (?:the|this) " + _ROOM + r"|(?! of))"),
     ("place_alone", r"(?:all )?(?:by (?:it|them)sel(?:f|ves)|on (?:its|their) own|alone|"
                     r"isolated|apart from the others)"),
+    # "at the end of the table", "at the head of the table" (not "the end of the room")
+    ("end_of", r"(?:(?:at|on|by|near|to|towards?) )?(?:the|one|either|each) "
+               r"(?:(?:very|far|other|opposite|short|narrow|front|back|near|left|right) )?"
+               r"(?:end|head)(?: side)? of(?= (?:the|a|this) (?!" + _ROOM + r"\b))"),
+    ("corner_of", r"(?:(?:at|on|by|near|to|towards?) )?(?:the|a|one) "
+                  r"(?:(?:near|far|front|back|left|right|[a-z]+ ?(?:left|right)) )?"
+                  r"corner of(?= (?:the|a|this) (?!" + _ROOM + r"\b))"),
     ("in_front_of", r"(?:(?:directly|right|just) )?in front of|(?:on|at|in) the front of"),
     ("behind", r"(?:(?:directly|right|just) )?behind|in back of|"
                r"(?:on|at|to) the back(?: side)? of"),

@@ -53,6 +53,8 @@ _CLOSEST_TO = {
     Metric.DISTANCE: "the anchor",
     Metric.HORIZONTAL_DISTANCE: "the anchor, horizontally",
     Metric.BOX_DISTANCE: "the anchor's surface",
+    Metric.END_DISTANCE: "an end of the anchor",
+    Metric.CORNER_DISTANCE: "a corner of the anchor",
 }
 
 
@@ -171,7 +173,7 @@ def _referring(b: ProgramBuilder, planner: Planner, grounded: Grounded) -> tuple
         n = b.size(step)
         if planned.anchor is not None:
             anchor = planned.anchor
-            metric = Metric.HORIZONTAL_DISTANCE if planned.vertical else b.distance_to(anchor)
+            metric = planned.measure or b.distance_to(anchor)
             step = b.add(Op.ARGMIN, step, anchor, metric=metric)
             what = _CLOSEST_TO.get(metric, "both anchors")
             b.note(f"{n} candidates fit; took the one closest to {what}")

@@ -445,7 +445,8 @@ def _names_what_is_wanted(target: NounPhrase | None, purpose: int | None, fetch:
 #: ("somewhere to sit near the counter"); after "on" or "in" the noun is where the need
 #: is met ("I want to sit on the couch") and stays the target.
 _NEED_ANCHOR_CUES = frozenset({"near", "left_of", "right_of", "in_front_of", "behind",
-                               "between", "closest", "farthest", "above", "below"})  # fmt: skip
+                               "between", "closest", "farthest", "above", "below", "end_of",
+                               "corner_of"})  # fmt: skip
 
 
 def _anchor_of_need(target: NounPhrase | None, items: list[Item]) -> NounPhrase | None:

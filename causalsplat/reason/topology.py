@@ -106,19 +106,23 @@ _WORDS = {
     "opposite": "across from",
     "farthest": "farthest from", "between": "between", "left_of": "left of",
     "right_of": "right of", "in_front_of": "in front of", "behind": "behind",
-    "with": "with",
+    "with": "with", "end_of": "at the end of", "corner_of": "at the corner of",
 }  # fmt: skip
+#: "At the end / corner of X": the candidate nearest an end (shorter edge) or a corner of
+#: X's footprint, not its middle.
+_FOOTPRINT = {"end_of": Metric.END_DISTANCE, "corner_of": Metric.CORNER_DISTANCE}
 
 
 @dataclass(frozen=True, slots=True)
 class Planned:
     """A planned noun phrase: its step, and the anchor step of its last relation (used to
-    break ties: the candidate closest to it, measured horizontally when ``vertical``)."""
+    break ties: the candidate closest to it, by ``measure`` where the relation says how,
+    else as :meth:`ProgramBuilder.distance_to` measures)."""
 
     step: int
     anchor: int | None = None
     between: bool = False
-    vertical: bool = False
+    measure: Metric | None = None
 
 
 class Planner:
@@ -384,7 +388,7 @@ class Planner:
             if out is not None:
                 step, last = out.step, out
         step = self.place(step, np, base)
-        return Planned(self.modifiers(step, np), last.anchor, last.between, last.vertical)
+        return Planned(self.modifiers(step, np), last.anchor, last.between, last.measure)
 
     def anchor(self, np: NounPhrase) -> int | None:
         contradicted = len(self.contradicted)
@@ -432,7 +436,8 @@ class Planner:
             self.b.note(f"{_WORDS.get(c.kind, c.kind)!r}: its anchor is the candidates"
                         " themselves; the relation was not used")  # fmt: skip
             return Planned(step, None)
-        return Planned(related, anchor, between=c.kind == "between", vertical=c.kind in VERTICAL)
+        measure = Metric.HORIZONTAL_DISTANCE if c.kind in VERTICAL else _FOOTPRINT.get(c.kind)
+        return Planned(related, anchor, between=c.kind == "between", measure=measure)
 
     def _related(
         self, step: int, kind: str, a: list[int], *, singular: bool, selectors: bool, nth: int = 1
@@ -447,6 +452,10 @@ class Planner:
             return b.add(Op.DIFFERENCE, upto, before)
         if kind == "opposite":
             return self._opposite(step, a[0], singular=singular, selectors=selectors)
+        if kind in _FOOTPRINT:
+            if singular and not selectors:
+                return b.add(Op.ARGMIN, step, a[0], metric=_FOOTPRINT[kind])
+            kind = "near"
         if kind == "near" and singular and not selectors:
             return b.add(Op.ARGMIN, step, a[0], metric=b.distance_to(a[0]))
         if kind == "between":
