@@ -34,8 +34,8 @@ CUE_PATTERNS: tuple[tuple[str, str], ...] = (
     ("end_of", r"(?:(?:at|on|by|near|to|towards?) )?(?:the|one|either|each) "
                r"(?:(?:very|far|other|opposite|short|narrow|front|back|near|left|right) )?"
                r"(?:end|head)(?: side)? of(?= (?:the|a|this) (?!" + _ROOM + r"\b))"),
-    ("corner_of", r"(?:(?:at|on|by|near|to|towards?) )?(?:the|a|one) "
-                  r"(?:(?:near|far|front|back|left|right|[a-z]+ ?(?:left|right)) )?"
+    ("corner_of", r"(?:(?:at|on|in|into|by|near|to|towards?) )?(?:the|a|one) "
+                  r"(?:(?:near|far|front|back|left|right|[a-z]+ (?:left|right)) )?"
                   r"corner of(?= (?:the|a|this) (?!" + _ROOM + r"\b))"),
     ("in_front_of", r"(?:(?:directly|right|just) )?in front of|(?:on|at|in) the front of"),
     ("behind", r"(?:(?:directly|right|just) )?behind|in back of|"

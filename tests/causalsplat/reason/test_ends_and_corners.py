@@ -53,8 +53,16 @@ def test_at_the_end_of_the_table_is_the_chair_by_a_short_edge(text: str) -> None
     assert Metric.END_DISTANCE in _metrics(answer)
 
 
-def test_at_the_corner_of_the_table_is_the_chair_by_a_corner() -> None:
-    answer = REASONER.answer("the chair at the corner of the table", _room(TABLE_ROOM))
+@pytest.mark.parametrize(
+    "text",
+    [
+        "the chair at the corner of the table",
+        "the chair in the corner of the table",
+        "a chair sits at the back left corner of the table",
+    ],
+)
+def test_at_the_corner_of_the_table_is_the_chair_by_a_corner(text: str) -> None:
+    answer = REASONER.answer(text, _room(TABLE_ROOM))
     assert answer.entity_ids == (3,), answer.explanation
     assert Metric.CORNER_DISTANCE in _metrics(answer)
 
