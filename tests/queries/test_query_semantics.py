@@ -156,6 +156,10 @@ def _q3(
     return (SQL.const(p[0]), SQL.const(p[1]), SQL.const(p[2]))
 
 
+def _d3(v: tuple[float, ...]) -> tuple[str, str, str]:
+    return (double(v[0]), double(v[1]), double(v[2]))
+
+
 @settings(max_examples=40, deadline=None)
 @given(
     st.tuples(finite, finite, finite), st.lists(st.tuples(finite, finite), min_size=3, max_size=3)
@@ -176,10 +180,8 @@ def test_box_distance_agrees_across_engines_and_with_exact_arithmetic(
     sql = reference_distance(SQL, "box_distance", _q3(p), _q3(mid), _q3(lo), _q3(hi))
     assert _sqlite(sql) == got
 
-    def d3(v: tuple[float, ...]) -> tuple[str, str, str]:
-        return (double(v[0]), double(v[1]), double(v[2]))
-
-    ox_d, rd_d = _sparql(reference_distance(SPARQL, "box_distance", d3(p), d3(mid), d3(lo), d3(hi)))
+    sparql = reference_distance(SPARQL, "box_distance", _d3(p), _d3(mid), _d3(lo), _d3(hi))
+    ox_d, rd_d = _sparql(sparql)
     assert float(str(ox_d)) == got and rd_d == got
 
 
@@ -222,10 +224,8 @@ def test_footprint_distances_agree_across_engines_and_with_exact_arithmetic(
     sql = reference_distance(SQL, metric, _q3(p), _q3(mid), _q3(lo), _q3(hi))
     assert _sqlite(sql) == got
 
-    def d3(v: tuple[float, ...]) -> tuple[str, str, str]:
-        return (double(v[0]), double(v[1]), double(v[2]))
-
-    ox_d, rd_d = _sparql(reference_distance(SPARQL, metric, d3(p), d3(mid), d3(lo), d3(hi)))
+    sparql = reference_distance(SPARQL, metric, _d3(p), _d3(mid), _d3(lo), _d3(hi))
+    ox_d, rd_d = _sparql(sparql)
     assert float(str(ox_d)) == got and rd_d == got
 
 
