@@ -35,8 +35,6 @@ from queries.semantics import (
 )
 
 E, ATTR, REL = m.entities, m.entity_attributes, m.relations
-
-
 Num = ColumnElement[Any]
 Cond = ColumnElement[bool]
 #: Rank given to texts that do not match in ``match_text`` (larger than any real rank).

@@ -138,13 +138,7 @@ class Metric(StrEnum):
     @property
     def is_distance(self) -> bool:
         """Ranks by distance to a reference set (or the scene centre), not a value per entity."""
-        return self in (
-            Metric.DISTANCE,
-            Metric.HORIZONTAL_DISTANCE,
-            Metric.BOX_DISTANCE,
-            Metric.END_DISTANCE,
-            Metric.CORNER_DISTANCE,
-        )
+        return self.uses_box or self in (Metric.DISTANCE, Metric.HORIZONTAL_DISTANCE)
 
     @property
     def uses_box(self) -> bool:

@@ -322,18 +322,19 @@ def reference_distance(
         return alg.add(alg.add(squares[0], squares[1]), squares[2])
     if metric not in ("end_distance", "corner_distance"):
         raise ValueError(f"metric {metric!r} is not a distance")
-    # per horizontal axis: how far p lies from the footprint's nearer edge across that axis
-    # (negative between the two edges), and from the footprint's middle line along it
-    edge, middle = [], []
+    # per horizontal axis: how far p lies from the footprint's middle line along it, and
+    # from its nearer edge across that axis (negative between the two edges)
+    offs, edge = [], []
     for axis in (0, 1):
         mid = alg.mul(alg.add(lo[axis], hi[axis]), half)
         off = alg.abs(alg.sub(p[axis], mid))
         e = alg.sub(off, alg.mul(alg.sub(hi[axis], lo[axis]), half))
+        offs.append(off)
         edge.append(alg.mul(e, e))
-        middle.append(alg.mul(off, off))
     if metric == "corner_distance":
         return alg.add(edge[0], edge[1])
     # the ends are the edges across the long axis; measured to the nearer one's midpoint
+    middle = [alg.mul(off, off) for off in offs]
     long_x = alg.ge(alg.sub(hi[0], lo[0]), alg.sub(hi[1], lo[1]))
     return alg.select(long_x, alg.add(edge[0], middle[1]), alg.add(middle[0], edge[1]))
 
