@@ -16,13 +16,18 @@ from queries import Metric, Op
 #: Relation kinds a cue can name. Stored relations keep their RelationType value;
 #: ``closest`` / ``farthest`` / ``between`` / ``with`` are handled by the planner.
 _SIDE = r"(?:(?:to|on|at|towards?) )?(?:the )?(?:(?:far|very) )?"
+#: A superlative side before a partitive "of": "the furthest right of the four bottles" is
+#: the rightmost of them, not something right of them.
+_MOST_SIDE = r"(?:the |one )?(?:furthest|farthest|most) (?:to the )?"
 #: Words for the room as a whole ("in the middle of the room", "in the corner of the office").
 _ROOM = r"(?:room|space|area)"
 CUE_PATTERNS: tuple[tuple[str, str], ...] = (
     ("left_of", _SIDE + r"left(?: hand)?(?: side)? of"),
     ("right_of", _SIDE + r"right(?: hand)?(?: side)? of"),
-    ("side_left", r"(?:on|to|at|in|towards?) the (?:far |very )?left(?: hand)?(?: side)?"),
-    ("side_right", r"(?:on|to|at|in|towards?) the (?:far |very )?right(?: hand)?(?: side)?"),
+    ("side_left", r"(?:on|to|at|in|towards?) the (?:far |very )?left(?: hand)?(?: side)?|"
+                  + _MOST_SIDE + "left(?= (?:one |ones )?of )"),
+    ("side_right", r"(?:on|to|at|in|towards?) the (?:far |very )?right(?: hand)?(?: side)?|"
+                   + _MOST_SIDE + "right(?= (?:one |ones )?of )"),
     ("side_middle", r"(?:in|at) the (?:very )?(?:middle|center|centre)"),
     ("place_centre", r"(?:(?:in|at|near|towards?|by) )?the (?:very |exact )?"
                      r"(?:middle|center|centre) of (?:the|this) " + _ROOM),

@@ -27,7 +27,7 @@ from causalsplat.reason._grammar import (
     SIDES,
     SPATIAL_NOUNS,
 )
-from causalsplat.reason._text import tokenize
+from causalsplat.reason._text import NUMBER_WORDS, tokenize
 from causalsplat.reason.lexicon import Lexicon
 from queries.semantics import text_similarity
 
@@ -169,8 +169,8 @@ def _best(found: dict[str, float]) -> tuple[tuple[str, ...], float]:
 def _is_noun_word(lex: Lexicon, word: str) -> bool:
     if word in SPATIAL_NOUNS or word in FUNCTION_WORDS or word in EXTREMES or word in SIDES:
         return False
-    if word in lex.colors:
-        return False
+    if word in lex.colors or word in NUMBER_WORDS:
+        return False  # "the four white bottles": a count, never the thing counted
     return len(word) > 1 and word.isalpha() and lex.has_noun(lex.lemma(word))
 
 

@@ -551,6 +551,9 @@ _VIEW_CONTINUE = frozenset({"at", "to", "toward", "towards", "from", "of", "with
                             "opposite", "inside", "outside", "right", "just"})  # fmt: skip
 
 
+#: Verbs of going that open the main clause after a viewpoint's "and" ("face the couch and
+#: walk to the seat on the right").
+_GOING = frozenset({"walk", "go", "move", "head", "step", "turn", "you"})
 #: What follows "it" (or "its" for "it's") where it opens a clause: "it is the lamp".
 _IT_IS = frozenset({"is", "was", "will", "would", "should", "the", "a", "an", "on", "in"})
 
@@ -565,6 +568,8 @@ def _view_clause_end(tokens: tuple[str, ...], i: int, end: int) -> int:
         following = tokens[j + 1] if j + 1 < end else ""
         if t in g.VIEW_CLAUSE_OPENERS or (t in ("it", "its") and following in _IT_IS):
             return j
+        if t in ("and", "then") and (following in g.VIEW_CLAUSE_OPENERS or following in _GOING):
+            return j + 1  # "face the couch and walk to the seat on the right"
         after_noun = not (
             prev in _VIEW_CONTINUE or prev in g.DETERMINERS or prev in g.VIEW_TRIGGERS
         )
@@ -717,6 +722,13 @@ class _Reader:
                 nested = k == self.last_anchor_end and it.cue.kind == "with"
                 first = k
                 k, constraint = self._constraint(k)
+                if constraint is not None and not constraint.anchors:
+                    # a cue left without its anchor asks about the subject only where
+                    # the clause ends on it ("what is the cup on?"), never before a place
+                    # it names ("it is the only table in the room")
+                    end = items[k - 1].end
+                    if end < len(self.tokens) and self.tokens[end] not in (",", ".", "?"):
+                        constraint = None
                 if constraint is not None:
                     span = (items[first].start, items[k - 1].end)
                     self._add(replace(constraint, negated=negated, span=span), nested=nested)

@@ -126,3 +126,49 @@ def test_across_from_something_in_the_middle_is_the_closest() -> None:
     answer = REASONER.answer("the chair across from the table", ctx)
     assert answer.entity_ids == (2,)
     assert Metric.FORWARD not in {s.metric for s in answer.program.steps}, answer.explanation
+
+
+def test_the_furthest_right_of_a_counted_group_is_its_rightmost_member() -> None:
+    # three bottles along a shelf under the window (north), a cup further east: facing
+    # the window, "the furthest right of the three bottles" is the eastmost bottle, not
+    # the cup right of them, and "three" names no anchor
+    ctx = _room([FLOOR, (1, "window", (0.0, 3.9, 1.5), (2.0, 0.1, 1.0)),
+                 (2, "bottle", (-0.6, 3.0, 1.0), (0.1, 0.1, 0.3)),
+                 (3, "bottle", (0.0, 3.0, 1.0), (0.1, 0.1, 0.3)),
+                 (4, "bottle", (0.6, 3.0, 1.0), (0.1, 0.1, 0.3)),
+                 (5, "cup", (1.4, 3.0, 1.0), (0.1, 0.1, 0.1))])  # fmt: skip
+    for text in (
+        "facing the window, it is the furthest right of the three bottles",
+        "facing the window, it is the one farthest to the right of the bottles",
+    ):
+        answer = REASONER.answer(text, ctx)
+        assert answer.entity_ids == (4,), answer.explanation
+        assert "three" not in answer.explanation
+    # "to the far right of" stays a relation
+    answer = REASONER.answer("facing the window, the cup to the far right of the bottles", ctx)
+    assert answer.entity_ids == (5,)
+    assert "right_of 'bottle'" in answer.explanation
+
+
+def test_a_place_after_a_restated_target_is_no_question_about_it() -> None:
+    # "the item is a table. it is the only table in the room": the table; the "in" before
+    # "the room" asks nothing about what holds the table
+    ctx = _room([FLOOR, (1, "table", (0.0, 0.0, 0.4), (1.2, 0.8, 0.8)),
+                 (2, "cabinet", (3.0, 0.0, 0.5), (0.8, 0.5, 1.0)),
+                 (3, "cup", (0.2, 0.0, 0.85), (0.1, 0.1, 0.1))])  # fmt: skip
+    answer = REASONER.answer("the item is a table. it is the only table in the room.", ctx)
+    assert answer.entity_ids == (1,), answer.explanation
+    # the question whose clause ends on its cue still asks about the subject
+    assert REASONER.answer("what is the cup on?", ctx).entity_ids == (1,)
+
+
+def test_face_x_and_walk_to_the_one_on_the_right() -> None:
+    # a couch against the north wall facing south; two armchairs beside it. Facing the
+    # couch (from the south) the eastern chair is on the right
+    ctx = _room([FLOOR, (1, "couch", (0.0, 3.0, 0.4), (2.0, 0.9, 0.8)),
+                 (2, "chair", (-1.8, 2.8, 0.45), BOX),
+                 (3, "chair", (1.8, 2.8, 0.45), BOX),
+                 (4, "table", (0.0, 1.0, 0.3), (1.0, 0.6, 0.6))])  # fmt: skip
+    answer = REASONER.answer("Face the couch and walk to the seat on the right next to it.", ctx)
+    assert answer.entity_ids == (3,), answer.explanation
+    assert "facing 'couch'" in answer.explanation
