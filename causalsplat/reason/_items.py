@@ -97,6 +97,45 @@ def _shade_at(tokens: tuple[str, ...], i: int) -> tuple[str, int] | None:
     return None
 
 
+#: Verbs saying which way a thing faces ("a chair facing left", "it faces the right").
+_FACING = frozenset({"facing", "faces", "faced", "face", "turned", "pointing", "points",
+                     "oriented", "angled"})  # fmt: skip
+
+
+def _orientation_end(tokens: tuple[str, ...], i: int) -> int | None:
+    """Where "facing (to / towards) (the) left / right (side)" ends when it starts at ``i``:
+    the way a thing faces, which no stored relation or attribute holds."""
+    if tokens[i] not in _FACING:
+        return None
+    j = i + 1
+    for optional in (("to", "towards", "toward"), ("the",)):
+        if j < len(tokens) and tokens[j] in optional:
+            j += 1
+    if j >= len(tokens) or tokens[j] not in ("left", "right"):
+        return None
+    j += 1
+    if j < len(tokens) and tokens[j] == "side":
+        j += 1
+    return None if j < len(tokens) and tokens[j] == "of" else j
+
+
+#: Nouns of a group of like things ("the row of chairs").
+_GROUPS = frozenset({"line", "row", "group", "set", "cluster", "bunch", "series", "column",
+                     "collection", "pile", "stack"})  # fmt: skip
+
+
+def _group_of(tokens: tuple[str, ...], i: int) -> bool:
+    """Whether "in / of / from / among the <group> of" starts at ``i``: the target is one of
+    the group, so next to others of it ("the farthest to the left in the line of chairs")."""
+    return (
+        i + 3 < len(tokens)
+        and tokens[i] in ("in", "of", "from", "among", "within")
+        and tokens[i + 1] == "the"
+        and tokens[i + 2] in _GROUPS
+        and tokens[i + 3] == "of"
+    )
+
+
 def _introduces(
     index: CategoryIndex, tokens: tuple[str, ...], i: int, earlier: tuple[str, ...]
 ) -> bool:
@@ -170,6 +209,16 @@ def read_items(
             flush()
             items.append(Item(i, i + 1, conjunction=True))
             i += 1
+            continue
+        turned = _orientation_end(tokens, i)
+        if turned is not None:
+            i = turned  # "a chair facing left": which way it faces, not where it stands
+            continue
+        if _group_of(tokens, i):
+            # "in the row of shoes": one of them, beside the others, not inside them
+            flush()
+            items.append(Item(i, i + 4, cue=g.Cue("near", i, i + 4)))
+            i += 4
             continue
         cue = g.find_cue(tokens, tuple(offsets), joined, i)
         if cue is not None:

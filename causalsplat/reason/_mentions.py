@@ -18,6 +18,7 @@ from __future__ import annotations
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
+from causalsplat.colors import is_color_word
 from causalsplat.reason._grammar import (
     DETERMINERS,
     EXTREMES,
@@ -220,8 +221,13 @@ def foreign_at(index: CategoryIndex, tokens: tuple[str, ...], i: int) -> Mention
             return Mention(i, i + length, lemma, cats, score)
     if not _is_noun_word(lex, tokens[i]) or infinitive_verb_at(index, tokens, i):
         return None
-    if i + 1 < len(tokens) and mention_at(index, tokens, i + 1) is not None:
-        return None  # a noun modifying the next one: "office chair", "dresser cabinet"
+    j = i + 1
+    while j < len(tokens) and (tokens[j] in lex.colors or is_color_word(tokens[j])):
+        j += 1
+    if j < len(tokens) and mention_at(index, tokens, j) is not None:
+        # a noun modifying the next one: "office chair", "dresser cabinet", "square gray
+        # sofa chair"
+        return None
     lemma = lex.lemma(tokens[i])
     cats, score = _best(index.resolve_foreign(lemma))
     return Mention(i, i + 1, lemma, cats, score, plural=lemma != tokens[i])

@@ -798,9 +798,12 @@ class _Reader:
         "from", right before the first noun phrase, qualifies that phrase."""
         items, cue = self.items, self.items[k].cue
         assert cue is not None
+        after = items[k + 1].np if k + 1 < len(items) else None
+        # "the chair is the closest one to the door": "one" is the chair named again
+        again = getattr(getattr(after, "mention", None), "phrase", None) in ("one", "ones")
         return (
             cue.kind in ("closest", "farthest")
-            and self.target is None
+            and (self.target is None or again)
             and bool(self.tokens)
             and self.tokens[cue.end - 1] not in ("to", "from")
             and k + 1 < len(items)

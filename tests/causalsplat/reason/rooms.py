@@ -8,8 +8,12 @@ from typing import Any
 from causalsplat.objects import objects_to_scene_graph, parse_objects
 from causalsplat.reason import SceneContext
 
-#: ``(id, label, centre, size)``, metres.
-Box = tuple[int, str, tuple[float, float, float], tuple[float, float, float]]
+#: ``(id, label, centre, size)``, metres, optionally with more object fields (``{"rgb":
+#: [r, g, b]}``).
+Box = (
+    tuple[int, str, tuple[float, float, float], tuple[float, float, float]]
+    | tuple[int, str, tuple[float, float, float], tuple[float, float, float], dict[str, Any]]
+)
 
 
 def room_of_boxes(objects: list[Box]) -> SceneContext:
@@ -17,8 +21,14 @@ def room_of_boxes(objects: list[Box]) -> SceneContext:
     doc: dict[str, Any] = {
         "scene_id": "room",
         "objects": [
-            {"id": i, "label": label, "center": list(c), "size": list(s)}
-            for i, label, c, s in objects
+            {
+                "id": o[0],
+                "label": o[1],
+                "center": list(o[2]),
+                "size": list(o[3]),
+                **(o[4] if len(o) > 4 else {}),
+            }  # type: ignore[misc]
+            for o in objects
         ],
     }
     return SceneContext(objects_to_scene_graph(parse_objects(doc)))

@@ -172,3 +172,49 @@ def test_face_x_and_walk_to_the_one_on_the_right() -> None:
     answer = REASONER.answer("Face the couch and walk to the seat on the right next to it.", ctx)
     assert answer.entity_ids == (3,), answer.explanation
     assert "facing 'couch'" in answer.explanation
+
+
+def test_the_closest_one_to_x_is_the_target_named_again() -> None:
+    # "the chair is the closest one to the door": measured from the door, never from "one"
+    ctx = _room([FLOOR, (1, "door", (3.9, 0.0, 1.0), (0.1, 0.9, 2.0)),
+                 (2, "chair", (-2.0, 0.0, 0.45), (0.9, 0.9, 0.9)),
+                 (3, "chair", (2.5, 0.5, 0.45), BOX)])  # fmt: skip
+    answer = REASONER.answer("the chair is the closest one to the door.", ctx)
+    assert answer.entity_ids == (3,), answer.explanation
+    assert "closest 'door'" in answer.explanation
+
+
+def test_which_way_a_thing_faces_is_not_where_it_stands() -> None:
+    # "a chair facing left" says how it is turned; read as "on the left" it would pick
+    # the western chair, while only the colour singles one out
+    ctx = _room([FLOOR, (1, "chair", (-2.0, 0.0, 0.45), BOX, {"rgb": [30, 30, 30]}),
+                 (2, "chair", (2.0, 0.0, 0.45), BOX, {"rgb": [200, 40, 40]})])  # fmt: skip
+    for text in ("this is a red chair facing left.", "the red chair is facing to the left side"):
+        answer = REASONER.answer(text, ctx)
+        assert answer.entity_ids == (2,), answer.explanation
+        assert "side" not in answer.explanation.splitlines()[0]
+
+
+def test_a_row_of_like_things_is_one_of_them_beside_the_others() -> None:
+    # three shoes in a row along the west wall, a fourth by the door: "in the row of
+    # shoes" keeps the three, and the second from the left is counted among them only
+    ctx = _room([FLOOR, (1, "shoe", (-3.0, -1.0, 0.05), (0.3, 0.1, 0.1)),
+                 (2, "shoe", (-3.0, -0.6, 0.05), (0.3, 0.1, 0.1)),
+                 (3, "shoe", (-3.0, -0.2, 0.05), (0.3, 0.1, 0.1)),
+                 (4, "shoe", (3.0, 2.0, 0.05), (0.3, 0.1, 0.1)),
+                 (5, "window", (-3.95, -0.6, 1.5), (0.1, 1.0, 1.0))])  # fmt: skip
+    text = "facing the window, in the row of shoes the shoe second from the right"
+    answer = REASONER.answer(text, ctx)
+    assert answer.entity_ids == (2,), answer.explanation
+    assert "near 'shoe'" in answer.explanation
+
+
+def test_a_shape_word_before_a_colour_and_a_noun_modifies_the_noun() -> None:
+    # "next to the square gray armchair": "square" is no anchor of its own
+    ctx = _room([FLOOR, (1, "table", (-2.0, 0.0, 0.4), (0.8, 0.8, 0.8)),
+                 (2, "table", (2.0, 0.0, 0.4), (1.6, 1.0, 0.8)),
+                 (3, "armchair", (-2.0, 1.0, 0.45), (0.9, 0.9, 0.9),
+                  {"rgb": [128, 128, 128]})])  # fmt: skip
+    answer = REASONER.answer("the table next to the square gray armchair", ctx)
+    assert answer.entity_ids == (1,), answer.explanation
+    assert "'square'" not in answer.explanation
