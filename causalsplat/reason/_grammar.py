@@ -19,15 +19,19 @@ _SIDE = r"(?:(?:to|on|at|towards?) )?(?:the )?(?:(?:far|very) )?"
 #: A superlative side before a partitive "of": "the furthest right of the four bottles" is
 #: the rightmost of them, not something right of them.
 _MOST_SIDE = r"(?:the |one )?(?:furthest|farthest|most) (?:to the )?"
+#: "the left (hand one) of the two chairs": one of a counted group, not something left of it.
+_OF_COUNT = (
+    r"(?: hand)?(?: one)? of(?= (?:the |these |those )?(?:two|three|four|five|six|both|\d+) )"
+)
 #: Words for the room as a whole ("in the middle of the room", "in the corner of the office").
 _ROOM = r"(?:room|space|area)"
 CUE_PATTERNS: tuple[tuple[str, str], ...] = (
-    ("left_of", _SIDE + r"left(?: hand)?(?: side)? of"),
-    ("right_of", _SIDE + r"right(?: hand)?(?: side)? of"),
+    ("left_of", r"(?!the left" + _OF_COUNT + ")" + _SIDE + r"left(?: hand)?(?: side)? of"),
+    ("right_of", r"(?!the right" + _OF_COUNT + ")" + _SIDE + r"right(?: hand)?(?: side)? of"),
     ("side_left", r"(?:on|to|at|in|towards?) the (?:far |very )?left(?: hand)?(?: side)?|"
-                  + _MOST_SIDE + "left(?= (?:one |ones )?of )"),
+                  + _MOST_SIDE + "left(?= (?:one |ones )?of )|the left" + _OF_COUNT),
     ("side_right", r"(?:on|to|at|in|towards?) the (?:far |very )?right(?: hand)?(?: side)?|"
-                   + _MOST_SIDE + "right(?= (?:one |ones )?of )"),
+                   + _MOST_SIDE + "right(?= (?:one |ones )?of )|the right" + _OF_COUNT),
     ("side_middle", r"(?:in|at) the (?:very )?(?:middle|center|centre)"),
     ("place_centre", r"(?:(?:in|at|near|towards?|by) )?the (?:very |exact )?"
                      r"(?:middle|center|centre) of (?:the|this) " + _ROOM),

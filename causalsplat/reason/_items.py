@@ -214,6 +214,9 @@ def read_items(
         if turned is not None:
             i = turned  # "a chair facing left": which way it faces, not where it stands
             continue
+        if tokens[i : i + 3] == ("side", "by", "side"):
+            i += 3  # "the two side-by-side doors": how they stand, no "by" of a relation
+            continue
         if _group_of(tokens, i):
             # "in the row of shoes": one of them, beside the others, not inside them
             flush()
@@ -252,8 +255,14 @@ def read_items(
         if mention is not None:
             mods = [m for _, m in pending]
             previous = items[-1] if items else None
-            if previous is not None and previous.np is not None and previous.end == i:
-                # a noun compound ("bathroom sink"): the last noun is the head
+            if (
+                previous is not None
+                and previous.np is not None
+                and previous.end == i
+                and not mention.generic
+            ):
+                # a noun compound ("bathroom sink"): the last noun is the head; never a
+                # word for any entity after a noun ("the door which opens")
                 items.pop()
                 mods = [*_mods_of(previous.np), *mods]
             items.append(Item(i, mention.end, np=_noun_phrase(mention, mods)))

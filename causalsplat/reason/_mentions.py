@@ -129,7 +129,8 @@ class CategoryIndex:
             if depth == 0:
                 continue
             for name in lex.noun_lemmas(hyper):
-                if name not in _TOO_GENERAL:
+                # a place or part word names no kind ("room" is a toilet's hypernym)
+                if name not in _TOO_GENERAL and name not in SPATIAL_NOUNS:
                     self._put(name, category, 0.55 - 0.05 * depth)
 
     def lookup(self, words: tuple[str, ...]) -> dict[str, float] | None:

@@ -218,3 +218,31 @@ def test_a_shape_word_before_a_colour_and_a_noun_modifies_the_noun() -> None:
     answer = REASONER.answer("the table next to the square gray armchair", ctx)
     assert answer.entity_ids == (1,), answer.explanation
     assert "'square'" not in answer.explanation
+
+
+def test_which_after_a_noun_is_no_head_of_a_compound() -> None:
+    # "the door which opens into the bathroom": the door; "room" names no toilet
+    # (read as "which" inside a toilet, the cabinet by the toilet would be the answer)
+    ctx = _room([FLOOR, (1, "door", (3.9, 0.0, 1.0), (0.1, 0.9, 2.0)),
+                 (2, "toilet", (-3.0, 2.0, 0.4), (0.5, 0.7, 0.8)),
+                 (3, "cabinet", (-2.0, 1.0, 1.0), (1.5, 0.6, 2.0))])  # fmt: skip
+    answer = REASONER.answer("it is the door which opens into the room.", ctx)
+    assert answer.entity_ids == (1,), answer.explanation
+    assert answer.explanation.startswith("read as: refer 'door'")
+    assert "toilet" not in answer.explanation
+
+
+def test_the_right_hand_one_of_two_is_a_side_not_a_relation() -> None:
+    # facing the window (north), two doors side by side on the east wall and a cabinet
+    # further east: "the right-hand of the two side-by-side doors" is the eastern door
+    ctx = _room([FLOOR, (1, "window", (0.0, 3.9, 1.5), (2.0, 0.1, 1.0)),
+                 (2, "door", (1.0, 3.8, 1.0), (0.9, 0.1, 2.0)),
+                 (3, "door", (2.2, 3.8, 1.0), (0.9, 0.1, 2.0)),
+                 (4, "cabinet", (3.4, 3.5, 1.0), (0.8, 0.5, 2.0))])  # fmt: skip
+    for text in ("facing the window, the right-hand of the two side-by-side doors",
+                 "facing the window, the right one of the two doors"):  # fmt: skip
+        answer = REASONER.answer(text, ctx)
+        assert answer.entity_ids == (3,), answer.explanation
+    # with a preposition it stays a relation
+    answer = REASONER.answer("facing the window, the cabinet to the right of the two doors", ctx)
+    assert answer.entity_ids == (4,) and "right_of 'door'" in answer.explanation
