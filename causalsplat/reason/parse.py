@@ -756,7 +756,11 @@ class _Reader:
             )
             return True
         if self.target is None or (
-            not self.target.resolved and np.resolved and not np.is_any and not self.constraints
+            not self.target.resolved
+            and np.resolved
+            and not np.is_any
+            and not self.constraints
+            and not self._for_before(np)
         ):
             self.target = np
         elif (
@@ -792,6 +796,17 @@ class _Reader:
         else:
             self.free = np
         return False
+
+    def _for_before(self, np: NounPhrase) -> bool:
+        """Whether "for" comes right before the phrase ("a light source for the floor":
+        what the thing is for, never the thing)."""
+        m = np.mention
+        if m is None or m.start == 0:
+            return False
+        j = m.start - 1
+        while j > 0 and self.tokens[j] in g.DETERMINERS:
+            j -= 1
+        return self.tokens[j] == "for"
 
     def _before_its_noun(self, k: int) -> bool:
         """ "the closest chair (to the door)": a closest / farthest cue without its "to" /

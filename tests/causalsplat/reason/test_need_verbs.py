@@ -297,3 +297,20 @@ def test_a_command_on_a_bare_noun_is_a_need(
 ) -> None:
     room = _room("trash can", "cabinet", "plant", "pot", "box", "door", "stove")
     assert reasoner.parse(text, room).kind == kind
+
+
+@pytest.mark.parametrize(
+    ("text", "answer"),
+    [
+        # what the thing is for never stands in for the thing: the floor is where the
+        # light goes, the door what the frame holds
+        ("I want a light source for the floor.", {"lamp"}),
+        ("I require a frame for a door.", {"doorframe"}),
+    ],
+)
+def test_what_follows_for_is_what_the_thing_serves(
+    reasoner: OfflineReasoner, text: str, answer: set[str]
+) -> None:
+    room = _room("floor", "lamp", "door", "doorframe", "table", "chair", "plant")
+    got = reasoner.answer(text, room)
+    assert set(got.categories) == answer, got.explanation
