@@ -184,7 +184,8 @@ FACING_PLACES = frozenset({"foot", "front"})
 LOOKING = frozenset({"facing", "face", "looking", "look", "viewing", "view", "seen", "toward",
                      "towards"})  # fmt: skip
 #: Viewpoint triggers after which the observer stands *at* the anchor (not looking at it).
-STANDING_AT = frozenset({"standing", "stand", "sitting", "entering", "enter", "walking",
+STANDING_AT = frozenset({"standing", "stand", "stood", "sitting", "sit", "sat", "entering",
+                         "enter", "walking",
                          *_ENTERING})  # fmt: skip
 REMOVAL_TRIGGERS = re.compile(
     r"\b(?:remov\w*|take[ns]? away|took away|taking away|pull(?:ed|s)? (?:out|away)|"

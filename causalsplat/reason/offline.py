@@ -244,4 +244,6 @@ def _describe(ins: Instruction) -> str:
     if ins.viewpoint is not None:
         verb = "standing at" if ins.standing_at else "facing"
         parts.append(f"{verb} {ins.viewpoint.text!r}")
+        if ins.observer_at is not None:
+            parts.append(f"from {ins.observer_at.text!r}")
     return "; ".join(parts)

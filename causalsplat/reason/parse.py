@@ -94,6 +94,9 @@ class Instruction:
         action: the words describing an action or need ("wash", "hands").
         viewpoint: the noun phrase of a viewpoint clause ("facing the couch").
         standing_at: the observer stands at the viewpoint entity (else looks at it).
+        observer_at: where the observer stands while looking at the viewpoint entity
+            ("standing at the door looking at the windows": the door), or ``None`` (the
+            scene centre).
         closure: a counterfactual or set question over everything stacked, transitively.
         purpose_start: index in ``main_tokens`` where the purpose clause of a need begins
             ("where can I | heat up soup"), or ``None``.
@@ -110,6 +113,7 @@ class Instruction:
     action: tuple[str, ...] = ()
     viewpoint: NounPhrase | None = None
     standing_at: bool = False
+    observer_at: NounPhrase | None = None
     closure: bool = False
     notes: tuple[str, ...] = field(default=())
     purpose_start: int | None = None
@@ -135,7 +139,8 @@ def parse_instruction(text: str, index: CategoryIndex) -> Instruction:
     if condition is not None:
         return _counterfactual(text, tokens, condition, index)
     view_tokens, main_tokens = _split_viewpoint(tokens)
-    viewpoint, standing = _viewpoint(view_tokens, index)
+    view = _viewpoint(view_tokens, index)
+    viewpoint, standing = view.entity, view.standing
     items = read_items(main_tokens, index, view_tokens)
     picked = _picked_clause(main_tokens, items)
     if picked is None:
@@ -195,7 +200,8 @@ def parse_instruction(text: str, index: CategoryIndex) -> Instruction:
             target = NounPhrase(None, constraints=target.constraints)
         target = _place_of_need(_anchor_of_need(target, items))
         return Instruction(text, tokens, "action", target, action=action, viewpoint=viewpoint,
-                           standing_at=standing, purpose_start=purpose,
+                           standing_at=standing, observer_at=view.observer,
+                           purpose_start=purpose,
                            main_tokens=main_tokens, command=command)  # fmt: skip
     if target is None:
         target = NounPhrase(None)
@@ -218,6 +224,7 @@ def parse_instruction(text: str, index: CategoryIndex) -> Instruction:
         kind = "refer"
     closure = kind == "set" and bool(g.CLOSURE_TRIGGERS.search(joined))
     return Instruction(text, tokens, kind, target, viewpoint=viewpoint, standing_at=standing,
+                       observer_at=view.observer,
                        closure=closure)  # fmt: skip
 
 
@@ -570,7 +577,9 @@ def _view_clause_end(tokens: tuple[str, ...], i: int, end: int) -> int:
             return j
         if t in ("and", "then") and (following in g.VIEW_CLAUSE_OPENERS or following in _GOING):
             return j + 1  # "face the couch and walk to the seat on the right"
-        after_noun = not (
+        # "... to your right | the towel is ...": a side after a determiner is a noun
+        side_noun = prev in ("left", "right") and tokens[j - 2] in g.DETERMINERS
+        after_noun = side_noun or not (
             prev in _VIEW_CONTINUE or prev in g.DETERMINERS or prev in g.VIEW_TRIGGERS
         )
         if t in ("the", "a", "an") and after_noun and not prev.isdigit():
@@ -578,16 +587,36 @@ def _view_clause_end(tokens: tuple[str, ...], i: int, end: int) -> int:
     return end
 
 
-def _viewpoint(tokens: tuple[str, ...], index: CategoryIndex) -> tuple[NounPhrase | None, bool]:
+@dataclass(frozen=True, slots=True)
+class _View:
+    """What a viewpoint clause says: the entity in view, whether the observer stands at it,
+    and where the observer stands while looking at another ("standing at the door looking
+    at the windows": the door)."""
+
+    entity: NounPhrase | None = None
+    standing: bool = False
+    observer: NounPhrase | None = None
+
+
+def _viewpoint(tokens: tuple[str, ...], index: CategoryIndex) -> _View:
     """The viewpoint entity of a viewpoint clause, and whether the observer stands at it
     (standing, sitting, entering at it and not looking or facing anywhere else; standing
-    "at the foot of the bed" or "in front of the desk" faces it; "looking from" it)."""
+    "at the foot of the bed" or "in front of the desk" faces it; "looking from" it); and
+    the place of an observer who looks at something else from it."""
     if not tokens:
-        return None, False
+        return _View()
     nps = [it.np for it in read_items(tokens, index) if it.np is not None and it.np.resolved]
-    named = [np for np in nps if not np.is_any]
+    named: list[NounPhrase] = [np for np in nps if not np.is_any]  # type: ignore[misc]
     if not named:
-        return None, False
+        return _View()
+    # the thing looked at is the phrase right after the last looking word ("facing the
+    # picture on the wall": the picture), else the last one named ("standing at the door")
+    looking = max((i for i, t in enumerate(tokens) if t in g.LOOKING), default=None)
+    observer = None
+    if looking is not None:
+        after = [np for np in named if np.mention is not None and np.mention.start > looking]
+        observer = _observer(tokens, named, looking, after[:1])
+        named = after[:1] or named
     standing = (
         any(t in g.STANDING_AT for t in tokens)
         and not any(t in g.LOOKING for t in tokens)
@@ -597,7 +626,29 @@ def _viewpoint(tokens: tuple[str, ...], index: CategoryIndex) -> tuple[NounPhras
     seen_from = any(
         t in g.LOOKING and nxt == "from" for t, nxt in itertools.pairwise(tokens)
     ) and not any(t in _LOOKED_AT for t in tokens)
-    return named[-1], standing or seen_from
+    return _View(named[-1], standing or seen_from, observer)
+
+
+def _observer(
+    tokens: tuple[str, ...], named: list[NounPhrase], looking: int, faced: list[NounPhrase]
+) -> NounPhrase | None:
+    """Where an observer who looks at ``faced`` stands: the first other phrase after a word
+    of standing ("standing at the door looking at the windows") or after a "from" that is
+    not the looking word's own ("looking at the window from the door")."""
+    if not faced:
+        return None
+    places = [
+        i for i, t in enumerate(tokens) if t in g.STANDING_AT or (t == "from" and i != looking + 1)
+    ]
+    for np in named:
+        m = np.mention
+        if np is faced[0] or m is None or set(np.categories) == set(faced[0].categories):
+            continue
+        if any(
+            i < m.start and all(t not in g.LOOKING for t in tokens[i : m.start]) for i in places
+        ):
+            return np
+    return None
 
 
 #: Words naming where an observer looks ("looking from the door *at* the bed").

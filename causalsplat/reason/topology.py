@@ -558,12 +558,18 @@ class Planner:
         where = self._centroid_of(ins.viewpoint)
         if where is None:
             return None
-        centre = list(self.ctx.centre)
+        centre = self._observer() or list(self.ctx.centre)
         if math.hypot(where[0] - centre[0], where[1] - centre[1]) < MIN_VIEW_DISTANCE:
             return None  # no direction to look in: the default viewpoint
         if ins.standing_at:
             return {"eye": where, "target": centre}
         return {"eye": centre, "target": where}
+
+    def _observer(self) -> list[float] | None:
+        """Where the observer stands when the instruction says it ("standing at the door
+        looking at the windows"), else ``None`` (the scene centre)."""
+        at = self.instruction.observer_at
+        return None if at is None else self._centroid_of(at)
 
     def _centroid_of(self, np: NounPhrase) -> list[float] | None:
         if self._placing_viewpoint:
@@ -627,6 +633,7 @@ class Planner:
         if ins.viewpoint is not None:
             where = self._centroid_of(ins.viewpoint)
             if where is not None:
+                eye = self._observer() or eye
                 eye, target = (where, eye) if ins.standing_at else (eye, where)
         if math.hypot(target[0] - eye[0], target[1] - eye[1]) < MIN_VIEW_DISTANCE:
             return None

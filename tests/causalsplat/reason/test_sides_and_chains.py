@@ -246,3 +246,43 @@ def test_the_right_hand_one_of_two_is_a_side_not_a_relation() -> None:
     # with a preposition it stays a relation
     answer = REASONER.answer("facing the window, the cabinet to the right of the two doors", ctx)
     assert answer.entity_ids == (4,) and "right_of 'door'" in answer.explanation
+
+
+def test_what_is_faced_is_the_phrase_after_facing_not_where_it_hangs() -> None:
+    # a picture on the north-east of the room, the only wall entity in the south: facing
+    # the picture, the eastern chair is on the right (facing the wall, the western one)
+    ctx = _room([FLOOR, (1, "picture", (2.5, 3.9, 1.5), (0.8, 0.05, 0.6)),
+                 (2, "wall", (0.0, -4.0, 1.5), (8.0, 0.1, 3.0)),
+                 (3, "chair", (-2.0, 0.0, 0.45), BOX),
+                 (4, "chair", (2.0, 0.0, 0.45), BOX)])  # fmt: skip
+    answer = REASONER.answer("Facing the striped picture on the wall, the chair on the right.", ctx)
+    assert answer.entity_ids == (4,), answer.explanation
+    assert "facing 'picture'" in answer.explanation
+
+
+def test_an_observer_who_stands_somewhere_and_looks_at_something_else() -> None:
+    # the window in the north, the door in the east. From the room's centre facing the
+    # window, monitor 5 (further east) is on the right; from the door looking at the
+    # window, monitor 4 (far north) is
+    ctx = _room([FLOOR, (1, "window", (0.0, 3.9, 1.5), (2.0, 0.1, 1.0)),
+                 (2, "door", (3.9, 0.0, 1.0), (0.1, 0.9, 2.0)),
+                 (4, "monitor", (-0.5, 3.5, 1.0), (0.5, 0.1, 0.4)),
+                 (5, "monitor", (0.5, 0.5, 1.0), (0.5, 0.1, 0.4))])  # fmt: skip
+    for text in ("looking at the window from the door, the monitor on the right",
+                 "if standing at the door looking at the window, the right monitor"):  # fmt: skip
+        answer = REASONER.answer(text, ctx)
+        assert answer.entity_ids == (4,), answer.explanation
+        assert "facing 'window'; from 'door'" in answer.explanation
+    assert REASONER.answer("facing the window, the monitor on the right", ctx).entity_ids == (5,)
+
+
+def test_a_viewpoint_clause_ends_after_to_your_right() -> None:
+    # "... with the door to your right the chair on the left": the chair is the target
+    ctx = _room([FLOOR, (1, "window", (0.0, 3.9, 1.5), (2.0, 0.1, 1.0)),
+                 (2, "door", (3.9, 0.0, 1.0), (0.1, 0.9, 2.0)),
+                 (3, "chair", (-2.0, 0.0, 0.45), BOX),
+                 (4, "chair", (2.0, 0.0, 0.45), BOX)])  # fmt: skip
+    text = "if you face the window with the door to your right the chair on the left"
+    answer = REASONER.answer(text, ctx)
+    assert answer.explanation.startswith("read as: refer 'chair'"), answer.explanation
+    assert answer.entity_ids == (3,), answer.explanation
