@@ -36,7 +36,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from causalsplat.colors import (
     BASIC,
@@ -396,12 +396,20 @@ class Planner:
         if planned is None:
             return None
         if self.b.size(planned.step) == 0:
-            self.b.note(f"anchor {np.text!r}: nothing fits")
             if len(self.contradicted) > contradicted:
                 # the scene holds the anchor's kind but contradicts its description ("the
                 # bed next to the blue nightstand" where the nightstand is brown): nothing
                 # is related to it, rather than dropping what was said
+                self.b.note(f"anchor {np.text!r}: nothing fits")
                 return planned.step
+            if np.constraints:
+                # "the end of the desk with a chair in front of it": where the anchor's own
+                # relation fits none of its kind, the anchor is every one of that kind
+                bare = self.plan(replace(np, constraints=()), singular=False, role="anchor")
+                if bare is not None and self.b.size(bare.step):
+                    self.b.note(f"anchor {np.text!r}: none fits its own relation; took it alone")
+                    return bare.step
+            self.b.note(f"anchor {np.text!r}: nothing fits")
             return None
         return planned.step
 

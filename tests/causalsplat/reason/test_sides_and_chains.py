@@ -286,3 +286,18 @@ def test_a_viewpoint_clause_ends_after_to_your_right() -> None:
     answer = REASONER.answer(text, ctx)
     assert answer.explanation.startswith("read as: refer 'chair'"), answer.explanation
     assert answer.entity_ids == (3,), answer.explanation
+
+
+def test_an_anchor_whose_own_relation_fits_none_is_taken_alone() -> None:
+    # no lamp stands on the table: "the table with a lamp on it" is still the table, and
+    # the cup next to it is meant (dropping the relation would take the larger cup)
+    ctx = _room([FLOOR, (1, "table", (0.0, 0.0, 0.4), (1.2, 0.8, 0.8), {"rgb": [120, 80, 40]}),
+                 (2, "lamp", (3.0, 3.0, 0.8), (0.3, 0.3, 1.6)),
+                 (3, "cup", (0.9, 0.0, 0.05), (0.1, 0.1, 0.1)),
+                 (4, "cup", (-3.0, -3.0, 0.1), (0.2, 0.2, 0.2))])  # fmt: skip
+    answer = REASONER.answer("the cup next to the table with a lamp on it", ctx)
+    assert answer.entity_ids == (3,), answer.explanation
+    assert "none fits its own relation" in answer.explanation
+    # a description the scene contradicts (the table is brown) still leaves nothing
+    answer = REASONER.answer("the cup next to the blue table", ctx)
+    assert answer.entity_ids == (), answer.explanation
