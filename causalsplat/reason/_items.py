@@ -270,6 +270,10 @@ def read_items(
             i = mention.end
             continue
         mod = _modifier(t, index)
+        if mod is not None and mod.kind == "attribute":
+            compound = foreign_at(index, tokens, i)
+            if compound is not None and compound.end - compound.start > 1:
+                mod = None  # "the coffee maker": a thing, not a coffee-coloured maker
         if mod is not None:
             pending.append((i, mod))
             i += 1

@@ -222,16 +222,41 @@ def foreign_at(index: CategoryIndex, tokens: tuple[str, ...], i: int) -> Mention
             return Mention(i, i + length, lemma, cats, score)
     if not _is_noun_word(lex, tokens[i]) or infinitive_verb_at(index, tokens, i):
         return None
-    j = i + 1
-    while j < len(tokens) and (tokens[j] in lex.colors or is_color_word(tokens[j])):
-        j += 1
-    if j < len(tokens) and mention_at(index, tokens, j) is not None:
-        # a noun modifying the next one: "office chair", "dresser cabinet", "square gray
-        # sofa chair"
-        return None
+    for j in range(i + 1, min(i + 2 + _MODIFIER_GAP, len(tokens))):
+        if mention_at(index, tokens, j) is not None:
+            # a noun modifying a later one: "office chair", "dresser cabinet", "square
+            # gray sofa chair", "the wood burning stove"
+            return None
+        if not _may_modify(lex, tokens[j]):
+            break
     lemma = lex.lemma(tokens[i])
     cats, score = _best(index.resolve_foreign(lemma))
     return Mention(i, i + 1, lemma, cats, score, plural=lemma != tokens[i])
+
+
+#: How many words may stand between a modifying noun and the noun it modifies.
+_MODIFIER_GAP = 2
+#: Words that end a noun phrase: prepositions, conjunctions, relative words.
+_PHRASE_ENDS = frozenset({"of", "on", "in", "at", "with", "by", "for", "from", "into", "onto",
+                          "under", "over", "and", "or", "but", "that", "which", "who",
+                          "whose", "it", "its", "than", "like"})  # fmt: skip
+
+
+#: Part words that also modify a head ("the wood *top* table", "the *side* table").
+_PART_WORDS = frozenset({"top", "bottom", "side", "front", "back", "corner", "end", "edge"})
+
+
+def _may_modify(lex: Lexicon, word: str) -> bool:
+    """Whether ``word`` may stand inside a noun phrase before its head ("wood *burning*
+    stove", "square *gray* chair")."""
+    if word in lex.colors or is_color_word(word) or word in _PART_WORDS:
+        return True
+    return (
+        word.isalpha()
+        and word not in FUNCTION_WORDS
+        and word not in DETERMINERS
+        and word not in _PHRASE_ENDS
+    )
 
 
 def infinitive_verb_at(index: CategoryIndex, tokens: tuple[str, ...], i: int) -> bool:

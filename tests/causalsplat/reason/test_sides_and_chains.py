@@ -301,3 +301,19 @@ def test_an_anchor_whose_own_relation_fits_none_is_taken_alone() -> None:
     # a description the scene contradicts (the table is brown) still leaves nothing
     answer = REASONER.answer("the cup next to the blue table", ctx)
     assert answer.entity_ids == (), answer.explanation
+
+
+def test_words_before_a_head_noun_modify_it_and_a_compound_is_no_colour() -> None:
+    # "the wood burning stove": a stove; "the coffee maker": a thing the room does not
+    # hold, never a coffee-coloured target
+    ctx = _room([FLOOR, (1, "stove", (3.0, 3.0, 0.5), (0.8, 0.8, 1.0)),
+                 (2, "door", (3.9, 2.0, 1.0), (0.1, 0.9, 2.0)),
+                 (3, "door", (-3.9, -2.0, 1.0), (0.1, 1.2, 2.1)),
+                 (4, "trash can", (2.0, 3.5, 0.3), (0.4, 0.4, 0.6), {"rgb": [20, 20, 20]}),
+                 (5, "trash can", (-2.0, 0.0, 0.3), (0.4, 0.4, 0.6),
+                  {"rgb": [110, 70, 40]})])  # fmt: skip
+    answer = REASONER.answer("the door closest to the wood burning stove", ctx)
+    assert answer.entity_ids == (2,), answer.explanation
+    assert "closest 'stove'" in answer.explanation
+    answer = REASONER.answer("the trash can that is closest to the coffee maker", ctx)
+    assert answer.explanation.startswith("read as: refer 'trash can'; closest 'coffee maker'")
