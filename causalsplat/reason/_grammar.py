@@ -32,7 +32,9 @@ CUE_PATTERNS: tuple[tuple[str, str], ...] = (
                   + _MOST_SIDE + "left(?= (?:one |ones )?of )|the left" + _OF_COUNT),
     ("side_right", r"(?:on|to|at|in|towards?) the (?:far |very )?right(?: hand)?(?: side)?|"
                    + _MOST_SIDE + "right(?= (?:one |ones )?of )|the right" + _OF_COUNT),
-    ("side_middle", r"(?:in|at) the (?:very )?(?:middle|center|centre)"),
+    ("side_middle", r"(?:in|at) the (?:very )?(?:middle|center|centre)"
+                    r"(?: of (?:the|a|this) (?:group|row|line|set|cluster|bunch|series|others|"
+                    r"rest)(?: of)?| of the(?= (?:two|three|four|five|six|\d+) ))?"),
     ("place_centre", r"(?:(?:in|at|near|towards?|by) )?the (?:very |exact )?"
                      r"(?:middle|center|centre) of (?:the|this) " + _ROOM),
     ("place_corner", r"(?:in|at|into|near|towards?|by) (?:the|a) (?:far )?corner"

@@ -746,6 +746,7 @@ class _Reader:
         self.constraints: list[Constraint] = []
         self.mods: list[Modifier] = []
         self.last_anchor_end = -1  # item index after the last constraint's anchors
+        self.with_kind: str | None = None  # the relation of the last "with" / "has" cue
 
     def read(self) -> NounPhrase | None:
         items = self.items
@@ -782,8 +783,11 @@ class _Reader:
                         constraint = None
                 if constraint is not None:
                     span = (items[first].start, items[k - 1].end)
+                    negated = negated or constraint.negated
                     self._add(replace(constraint, negated=negated, span=span), nested=nested)
                     self.last_anchor_end = k
+                    if it.cue.kind == "with" and not nested:
+                        self.with_kind = constraint.kind
                 negated = False
                 continue
             elif it.separator:
@@ -805,6 +809,13 @@ class _Reader:
             self.target = replace(
                 self.target, not_attributes=(*self.target.not_attributes, *np.attributes)
             )
+            return True
+        if negated and self.with_kind is not None and np.categories and not np.is_any:
+            # "the table that has a book on it, but no lamp and no plant": what it has
+            # not, in the same relation
+            m = np.mention
+            span = (m.start, m.end) if m is not None else (0, 0)
+            self.constraints.append(Constraint(self.with_kind, (np,), negated=True, span=span))
             return True
         if self.target is None or (
             not self.target.resolved
@@ -940,6 +951,15 @@ class _Reader:
         cue = items[k].cue
         assert cue is not None
         k += 1
+        # "the table that has no lamp", "a desk with no chair at it": the relation denied
+        denied = (
+            cue.kind == "with"
+            and k + 1 < len(items)
+            and items[k].negation
+            and items[k + 1].np is not None
+        )
+        if denied:
+            k += 1
         anchors: list[NounPhrase] = []
         while k < len(items) and items[k].np is not None:
             anchors.append(items[k].np)  # type: ignore[arg-type]
@@ -949,7 +969,10 @@ class _Reader:
             if k < len(items) and items[k].conjunction:
                 k += 1
         if cue.kind == "with":
-            return self._with(k, anchors)
+            k, constraint = self._with(k, anchors)
+            if denied and constraint is not None:
+                constraint = replace(constraint, negated=True)
+            return k, constraint
         if not anchors and k < len(items) and items[k].back_reference:
             while k < len(items) and items[k].back_reference:
                 k += 1

@@ -317,3 +317,32 @@ def test_words_before_a_head_noun_modify_it_and_a_compound_is_no_colour() -> Non
     assert "closest 'stove'" in answer.explanation
     answer = REASONER.answer("the trash can that is closest to the coffee maker", ctx)
     assert answer.explanation.startswith("read as: refer 'trash can'; closest 'coffee maker'")
+
+
+def test_what_a_thing_has_not() -> None:
+    # two tables hold a book; only the western one also holds a lamp
+    ctx = _room([FLOOR, (1, "table", (-2.0, 0.0, 0.4), (1.0, 0.8, 0.8)),
+                 (2, "table", (2.0, 0.0, 0.4), (1.0, 0.8, 0.8)),
+                 (3, "table", (0.0, 3.0, 0.4), (1.6, 0.8, 0.8)),
+                 (4, "book", (-2.2, 0.0, 0.85), (0.2, 0.3, 0.05)),
+                 (5, "book", (2.2, 0.0, 0.85), (0.2, 0.3, 0.05)),
+                 (6, "lamp", (-1.8, 0.1, 1.05), (0.2, 0.2, 0.5))])  # fmt: skip
+    for text in ("the table that has a book on it, but no lamp",
+                 "the table with a book on it and no lamp"):  # fmt: skip
+        answer = REASONER.answer(text, ctx)
+        assert answer.entity_ids == (2,), answer.explanation
+        assert "not supports 'lamp'" in answer.explanation
+    answer = REASONER.answer("the table that has no lamp on it", ctx)
+    assert answer.explanation.startswith("read as: refer 'table'; not supports 'lamp'")
+
+
+def test_the_middle_of_a_group_is_the_middle_one() -> None:
+    # three plants in a row by the window, a fourth by the door
+    ctx = _room([FLOOR, (1, "window", (0.0, 3.9, 1.5), (2.0, 0.1, 1.0)),
+                 (2, "plant", (-1.0, 3.4, 0.4), (0.4, 0.4, 0.8)),
+                 (3, "plant", (0.1, 3.4, 0.4), (0.4, 0.4, 0.8)),
+                 (4, "plant", (1.0, 3.4, 0.4), (0.4, 0.4, 0.8)),
+                 (5, "plant", (3.0, -3.0, 0.4), (0.4, 0.4, 0.8))])  # fmt: skip
+    answer = REASONER.answer("the plant in the middle of the group next to the window", ctx)
+    assert answer.entity_ids == (3,), answer.explanation
+    assert "side middle" in answer.explanation
