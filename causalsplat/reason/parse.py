@@ -188,7 +188,10 @@ def parse_instruction(text: str, index: CategoryIndex) -> Instruction:
         or purpose is not None
         or any(g.state_at(main_tokens, i) for i in range(len(main_tokens)))
     )
-    if wants and (kind_noun or not _names_what_is_wanted(target, purpose, fetch)):
+    instrument = _instrument(target, purpose, main_tokens) if wants and not kind_noun else None
+    if instrument is not None:
+        target = instrument
+    elif wants and (kind_noun or not _names_what_is_wanted(target, purpose, fetch)):
         if (
             kind_noun
             and target is not None
@@ -446,6 +449,37 @@ def _names_what_is_wanted(target: NounPhrase | None, purpose: int | None, fetch:
     if not mention.categories or mention.score < _NAMED:
         return False
     return purpose is None or fetch or mention.start < purpose
+
+
+#: Verbs of resting somewhere: what they are done "with" keeps one company ("sit with my
+#: laptop" asks for a seat).
+_POSTURE = frozenset({"sit", "lie", "lay", "rest", "relax", "sleep", "nap", "stand", "wait",
+                      "lounge", "recline", "stay", "be"})  # fmt: skip
+
+
+def _instrument(
+    target: NounPhrase | None, purpose: int | None, tokens: tuple[str, ...]
+) -> NounPhrase | None:
+    """What the need is done with, when its purpose clause names it after "with" and
+    nothing else here is asked for ("I need to decorate with plants", "decorate my home
+    with plants": the home names nothing here): the thing wanted ("something to decorate
+    with flowers" asks for the something)."""
+    if target is None or not target.constraints:
+        return None
+    if target.mention is not None and (target.mention.categories or target.is_any):
+        return None  # "I need a towel to dry off with": the towel; "something to ... with"
+    first = target.constraints[0]
+    if first.kind != "with" or first.negated or len(first.anchors) != 1:
+        return None
+    (np,) = first.anchors
+    m = np.mention
+    if m is None or np.is_any or not m.categories or m.score < _NAMED:
+        return None
+    if purpose is None or first.span[0] < purpose or purpose >= len(tokens):
+        return None
+    if tokens[purpose] in _POSTURE:
+        return None
+    return replace(np, constraints=(*np.constraints, *target.constraints[1:]))
 
 
 #: Relation cues whose noun, in a need, is where to look rather than what is wanted

@@ -314,3 +314,22 @@ def test_what_follows_for_is_what_the_thing_serves(
     room = _room("floor", "lamp", "door", "doorframe", "table", "chair", "plant")
     got = reasoner.answer(text, room)
     assert set(got.categories) == answer, got.explanation
+
+
+@pytest.mark.parametrize(
+    ("text", "answer"),
+    [
+        # what the need is done with, named after "with" in its purpose, is what is wanted
+        ("I want to decorate my home with plants.", {"plant"}),
+        ("I need to decorate with plants.", {"plant"}),
+        ("I want to work with my laptop", {"laptop"}),
+        # ... but not when a "something" asks for another thing, nor for a verb of resting
+        # somewhere, where it keeps one company
+        ("I need something to store or decorate with flowers.", {"vase"}),
+        ("I want to sit with my laptop", {"couch", "chair"}),
+    ],
+)
+def test_what_a_need_is_done_with(reasoner: OfflineReasoner, text: str, answer: set[str]) -> None:
+    room = _room("couch", "chair", "laptop", "table", "lamp", "plant", "picture", "vase")
+    got = reasoner.answer(text, room)
+    assert got.categories and set(got.categories) <= answer, got.explanation
