@@ -222,6 +222,8 @@ def foreign_at(index: CategoryIndex, tokens: tuple[str, ...], i: int) -> Mention
             return Mention(i, i + length, lemma, cats, score)
     if not _is_noun_word(lex, tokens[i]) or infinitive_verb_at(index, tokens, i):
         return None
+    if i + 1 < len(tokens) and tokens[i + 1] in _PART_WORDS:
+        return None  # a word before a part names no thing: "the vertical side of the table"
     for j in range(i + 1, min(i + 2 + _MODIFIER_GAP, len(tokens))):
         if mention_at(index, tokens, j) is not None:
             # a noun modifying a later one: "office chair", "dresser cabinet", "square

@@ -346,3 +346,13 @@ def test_the_middle_of_a_group_is_the_middle_one() -> None:
     answer = REASONER.answer("the plant in the middle of the group next to the window", ctx)
     assert answer.entity_ids == (3,), answer.explanation
     assert "side middle" in answer.explanation
+
+
+def test_a_word_before_a_part_names_no_anchor() -> None:
+    # "the vertical side of the table": the table's side, not a thing called "vertical"
+    ctx = _room([FLOOR, (1, "table", (0.0, 0.0, 0.4), (2.0, 0.8, 0.8)),
+                 (2, "chair", (1.3, 0.0, 0.45), BOX),
+                 (3, "chair", (-3.0, 3.0, 0.45), (0.7, 0.7, 0.9))])  # fmt: skip
+    answer = REASONER.answer("the chair on the vertical side of the table", ctx)
+    assert answer.entity_ids == (2,), answer.explanation
+    assert "vertical" not in answer.explanation
