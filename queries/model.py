@@ -102,7 +102,12 @@ class Metric(StrEnum):
     plane (heights ignored: "the picture above the bed" is the one most directly over
     it); ``box_distance``: centroid distance to the nearest point of a member's bounding box
     (0 inside it), for references that are surfaces more than points ("the chair against
-    the wall": a wall's centroid is metres from most of it); ``end_distance`` /
+    the wall": a wall's centroid is metres from most of it); ``box_centroid_distance``:
+    ``box_distance``, members whose boxes are equally near (a centroid inside two boxes, or
+    inside one) told apart by ``distance`` (the value is the box distance's square plus
+    :data:`~queries.semantics.CENTROID_TIE_WEIGHT` times the centroid distance's: "the
+    chair closest to the bookshelf" is the one against it, however deep the bookshelf);
+    ``end_distance`` /
     ``corner_distance``: horizontal centroid distance to the middle of the nearest end (one
     of the two shorter edges) / to the nearest corner of a member's bounding-box footprint
     ("the chair at the end of the table", "the stool at the corner of the counter");
@@ -120,6 +125,7 @@ class Metric(StrEnum):
     DISTANCE = "distance"
     HORIZONTAL_DISTANCE = "horizontal_distance"
     BOX_DISTANCE = "box_distance"
+    BOX_CENTROID_DISTANCE = "box_centroid_distance"
     END_DISTANCE = "end_distance"
     CORNER_DISTANCE = "corner_distance"
     Z = "z"
@@ -143,7 +149,12 @@ class Metric(StrEnum):
     @property
     def uses_box(self) -> bool:
         """Measures to a reference member's bounding box, not to its centroid."""
-        return self in (Metric.BOX_DISTANCE, Metric.END_DISTANCE, Metric.CORNER_DISTANCE)
+        return self in (
+            Metric.BOX_DISTANCE,
+            Metric.BOX_CENTROID_DISTANCE,
+            Metric.END_DISTANCE,
+            Metric.CORNER_DISTANCE,
+        )
 
 
 @dataclass(frozen=True, slots=True)

@@ -280,6 +280,13 @@ def squared_distance(
     return alg.add(planar, alg.mul(dz, dz))
 
 
+#: The weight of the squared centroid distance in ``box_centroid_distance`` (square
+#: metres per square metre): small enough that it orders only members whose squared box
+#: distances differ by less than ``1e-9`` times their squared centroid distance (below
+#: 0.1 mm apart in a 100 m scene), large enough to survive double rounding.
+CENTROID_TIE_WEIGHT = 1e-9
+
+
 def reference_distance(
     alg: Algebra[N, B],
     metric: str,
@@ -291,7 +298,9 @@ def reference_distance(
     """What a distance metric ranks ``p`` by against one reference member (its ``centroid``
     and bounding box ``lo``..``hi``; for the scene centre pass the centre as all three):
     ``distance`` and ``horizontal_distance`` by :func:`squared_distance` to the centroid,
-    ``box_distance`` by the squared distance to the nearest point of the box;
+    ``box_distance`` by the squared distance to the nearest point of the box,
+    ``box_centroid_distance`` by that plus :data:`CENTROID_TIE_WEIGHT` times the squared
+    centroid distance (inside the box, nearer the centroid is nearer);
     ``end_distance`` and ``corner_distance`` horizontally, to the middle of the nearest end
     (one of the two shorter edges) and to the nearest corner of the box's footprint (its
     ``x``-``y`` rectangle; a square's ends are its edges across ``x``).
@@ -300,6 +309,10 @@ def reference_distance(
     >>> [reference_distance(PY, m, (3.0, 0.0, 0.5), *box)
     ...  for m in ("distance", "horizontal_distance", "box_distance")]
     [6.5, 6.5, 4.0]
+    >>> inside = [reference_distance(PY, "box_centroid_distance", p, *box)
+    ...           for p in ((0.5, 0.5, 0.9), (0.5, 0.5, 0.6))]  # both inside the box
+    >>> inside[1] < inside[0] < 1e-9  # nearer the centroid is nearer
+    True
     >>> table = ((1.0, 0.5, 0.4), (0.0, 0.0, 0.0), (2.0, 1.0, 0.8))  # long along x
     >>> [reference_distance(PY, m, p, *table)
     ...  for m in ("end_distance", "corner_distance") for p in ((2.5, 0.5, 0.4), (1.0, 1.5, 0.4))]
@@ -310,6 +323,9 @@ def reference_distance(
     if metric == "horizontal_distance":
         return squared_distance(alg, p, centroid, horizontal=True)
     half = alg.const(0.5)
+    if metric == "box_centroid_distance":
+        tie = alg.mul(alg.const(CENTROID_TIE_WEIGHT), squared_distance(alg, p, centroid))
+        return alg.add(reference_distance(alg, "box_distance", p, centroid, lo, hi), tie)
     if metric == "box_distance":
         squares = []
         for axis in range(3):

@@ -251,6 +251,34 @@ def test_box_distance_measures_to_the_reference_surface(make_any: MakeExecutor) 
         assert executor.run(GraphQuery.from_text(head + body)).answer == expected, body
 
 
+def test_box_centroid_distance_breaks_box_ties_by_centroid(make_any: MakeExecutor) -> None:
+    """A long, shallow bookshelf: a chair 0.3 m in front of it is nearer than one 0.65 m in
+    front whose centroid is nearer the shelf's; of two chairs whose centroids lie inside
+    its box (both at box distance 0), the one nearer its centroid is nearer."""
+    ents = (
+        Entity(1, "bookshelf", (0.0, 0.0, 1.0), (-1.0, -0.25, 0.0), (1.0, 0.25, 2.0)),
+        box(10, "chair", 0.9, 0.55, 0.45),  # box 0.09, centroid 1.415
+        box(11, "chair", 0.0, 0.9, 0.45),  # box 0.4225, centroid 1.1125
+        box(12, "chair", 0.6, 0.0, 0.45),  # inside: box 0, centroid 0.6625
+        box(13, "chair", -0.5, 0.1, 0.45),  # inside: box 0, centroid 0.5625
+    )
+    executor = make_any(SceneGraph(SceneMeta("shelf"), ents))
+    head = 'query spatial\nv0 = scene()\nv1 = filter_category(v0, "bookshelf")\n'
+    head += 'v2 = filter_category(v0, "chair")\n'
+    cases = [
+        ("v3 = argmin(v2, v1, box_centroid_distance)", (13,)),
+        ("v3 = argmin(v2, v1, box_distance)", (12,)),  # a tie, broken by id
+        ("v3 = argmin(v2, v1, box_centroid_distance, k=3)", (10, 12, 13)),
+        ("v3 = argmin(v2, v1, distance, k=3)", (11, 12, 13)),
+        ("v3 = argmax(v2, v1, box_centroid_distance)", (11,)),
+        # no reference set: to the scene centre, a point, as 'distance'
+        ("v3 = argmin(v2, box_centroid_distance, k=2)", (11, 13)),
+        ("v3 = argmin(v2, distance, k=2)", (11, 13)),
+    ]
+    for body, expected in cases:
+        assert executor.run(GraphQuery.from_text(head + body)).answer == expected, body
+
+
 def test_end_and_corner_distance_measure_to_the_footprint(make_any: MakeExecutor) -> None:
     """A table long along x and a desk long along y: "the chair at the end of the table" is
     the one by the middle of a short edge, "at the corner" the one by a corner, "closest"

@@ -17,6 +17,7 @@ from graph_store.types import RelationType
 from queries._sparql_steps import SPARQL, double, literal
 from queries._sql_steps import SQL
 from queries.semantics import (
+    CENTROID_TIE_WEIGHT,
     PY,
     QueryConfig,
     between,
@@ -181,6 +182,36 @@ def test_box_distance_agrees_across_engines_and_with_exact_arithmetic(
     assert _sqlite(sql) == got
 
     sparql = reference_distance(SPARQL, "box_distance", _d3(p), _d3(mid), _d3(lo), _d3(hi))
+    ox_d, rd_d = _sparql(sparql)
+    assert float(str(ox_d)) == got and rd_d == got
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    st.tuples(finite, finite, finite), st.lists(st.tuples(finite, finite), min_size=3, max_size=3)
+)
+def test_box_centroid_distance_agrees_across_engines_and_with_exact_arithmetic(
+    p: tuple[float, float, float], spans: list[tuple[float, float]]
+) -> None:
+    lo = (min(spans[0]), min(spans[1]), min(spans[2]))
+    hi = (max(spans[0]), max(spans[1]), max(spans[2]))
+    mid = ((lo[0] + hi[0]) * 0.5, (lo[1] + hi[1]) * 0.5, (lo[2] + hi[2]) * 0.5)
+    got = reference_distance(PY, "box_centroid_distance", p, mid, lo, hi)
+    # exact: the squared box distance plus the weight times the squared centroid distance
+    gaps = [max(Fraction(a) - Fraction(c), Fraction(0), Fraction(c) - Fraction(b))
+            for c, a, b in zip(p, lo, hi, strict=True)]  # fmt: skip
+    centre = sum((Fraction(c) - Fraction(m)) ** 2 for c, m in zip(p, mid, strict=True))
+    box_part = sum(g * g for g in gaps)
+    exact = box_part + Fraction(CENTROID_TIE_WEIGHT) * centre
+    # the box part as box_distance's bound, the centroid part a few more roundings of its
+    # own (the midpoint is a rounded input), the sum one more
+    eps = Fraction(1, 2**52)
+    bound = 8 * eps * box_part + 16 * eps * Fraction(CENTROID_TIE_WEIGHT) * centre + 2 * eps * exact
+    assert abs(Fraction(got) - exact) <= bound + Fraction(2.3e-308)
+    sql = reference_distance(SQL, "box_centroid_distance", _q3(p), _q3(mid), _q3(lo), _q3(hi))
+    assert _sqlite(sql) == got
+
+    sparql = reference_distance(SPARQL, "box_centroid_distance", _d3(p), _d3(mid), _d3(lo), _d3(hi))
     ox_d, rd_d = _sparql(sparql)
     assert float(str(ox_d)) == got and rd_d == got
 
