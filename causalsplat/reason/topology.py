@@ -453,6 +453,10 @@ class Planner:
         b = self.b
         if kind in ("closest", "farthest"):
             op, metric = Op.ARGMIN if kind == "closest" else Op.ARGMAX, b.distance_to(a[0])
+            if kind == "closest" and metric is Metric.DISTANCE:
+                # "the chair closest to the bookshelf": the one against it, however deep
+                # the shelf; of those inside its box, the one nearer its centroid
+                metric = Metric.BOX_CENTROID_DISTANCE
             if nth <= 1 or b.size(step) < nth:
                 return b.add(op, step, a[0], metric=metric)
             upto = b.add(op, step, a[0], metric=metric, k=nth)

@@ -48,15 +48,19 @@ def test_closest_to_the_floor_is_the_lowest_not_the_one_over_the_floor_s_middle(
     assert answer.entity_ids == (2,), answer.explanation
 
 
-def test_other_anchors_keep_centroid_distance() -> None:
-    # a long table: the chair at its end is nearer its surface, the chair at its side
-    # nearer its centroid; objects are measured centre to centre, as before
+def test_closest_to_an_object_is_nearest_its_box_and_farthest_from_its_centroid() -> None:
+    # a long table: the chair at its end is nearer its surface (0.40 m off its end), the
+    # chair at its side nearer its centroid (0.55 m off its side): "closest to" measures to
+    # the box, as Sr3D's nearest points do; "farthest from" and tie-breaks to the centroid
     ctx = _room([FLOOR, (1, "table", (0.0, 0.0, 0.4), (3.0, 0.9, 0.8)),
                  (2, "chair", (1.9, 0.0, 0.45), CHAIR),
                  (3, "chair", (0.0, 1.0, 0.45), CHAIR)])  # fmt: skip
     answer = REASONER.answer("the chair closest to the table", ctx)
-    assert answer.entity_ids == (3,), answer.explanation
-    assert Metric.BOX_DISTANCE not in _metrics(answer)
+    assert answer.entity_ids == (2,), answer.explanation
+    assert _metrics(answer) == {Metric.BOX_CENTROID_DISTANCE}
+    farthest = REASONER.answer("the chair farthest from the table", ctx)
+    assert farthest.entity_ids == (2,), farthest.explanation
+    assert _metrics(farthest) == {Metric.DISTANCE}
 
 
 def test_the_metric_follows_the_categories_the_anchor_can_hold() -> None:
