@@ -119,6 +119,24 @@ def _orientation_end(tokens: tuple[str, ...], i: int) -> int | None:
     return None if j < len(tokens) and tokens[j] == "of" else j
 
 
+def _than_the_other(tokens: tuple[str, ...], i: int) -> int | None:
+    """Where "than the other (one / ones / two)" or "than the others" ends when it starts at
+    ``i``: the other candidates a comparison is made with, never an anchor."""
+    if tokens[i] != "than":
+        return None
+    j = i + 1
+    if j < len(tokens) and tokens[j] in ("the", "that", "those", "any", "all"):
+        j += 1
+    if j < len(tokens) and tokens[j] == "others":
+        return j + 1
+    if j >= len(tokens) or tokens[j] != "other":
+        return None
+    j += 1
+    if j < len(tokens) and tokens[j] in ("one", "ones", "two", "three", "four"):
+        j += 1
+    return j
+
+
 #: Nouns of a group of like things ("the row of chairs").
 _GROUPS = frozenset({"line", "row", "group", "set", "cluster", "bunch", "series", "column",
                      "collection", "pile", "stack"})  # fmt: skip
@@ -213,6 +231,10 @@ def read_items(
         turned = _orientation_end(tokens, i)
         if turned is not None:
             i = turned  # "a chair facing left": which way it faces, not where it stands
+            continue
+        other = _than_the_other(tokens, i)
+        if other is not None:
+            i = other  # "closer to the door than the other one": the door is the anchor
             continue
         if tokens[i : i + 3] == ("side", "by", "side"):
             i += 3  # "the two side-by-side doors": how they stand, no "by" of a relation

@@ -356,3 +356,20 @@ def test_a_word_before_a_part_names_no_anchor() -> None:
     answer = REASONER.answer("the chair on the vertical side of the table", ctx)
     assert answer.entity_ids == (2,), answer.explanation
     assert "vertical" not in answer.explanation
+
+
+def test_than_the_other_one_is_no_anchor() -> None:
+    # "closer to the door than the other one": measured from the door only
+    ctx = _room([FLOOR, (1, "door", (3.9, 0.0, 1.0), (0.1, 0.9, 2.0)),
+                 (2, "table", (-2.0, 0.0, 0.4), (1.0, 1.0, 0.8)),
+                 (3, "table", (2.0, 0.0, 0.4), (1.0, 1.0, 0.8)),
+                 (4, "chair", (-2.0, 0.9, 0.45), BOX)])  # fmt: skip
+    for text in ("the table closer to the door than the other one",
+                 "it is the table nearer to the door than the others"):  # fmt: skip
+        answer = REASONER.answer(text, ctx)
+        assert answer.entity_ids == (3,), answer.explanation
+        assert "'one'" not in answer.explanation and "'other" not in answer.explanation
+    # an anchor the scene cannot place ("the entrance") leaves the comparison unanchored,
+    # never measured from "the other one" (any entity: the table by the chair)
+    answer = REASONER.answer("the table closer to the entrance than the other one", ctx)
+    assert "'one'" not in answer.explanation, answer.explanation
