@@ -223,6 +223,15 @@ def read_items(
             items.append(Item(i, i + 1, negation=True))
             i += 1
             continue
+        if (
+            t in ("and", "or", "&")
+            and pending
+            and pending[-1][1].kind == "attribute"
+            and i + 1 < len(tokens)
+            and (tokens[i + 1] in index.lexicon.colors or is_color_word(tokens[i + 1]))
+        ):
+            i += 1  # "a blue and grey item": both colours of the one item
+            continue
         if t in ("and", "or", "&"):
             flush()
             items.append(Item(i, i + 1, conjunction=True))

@@ -156,11 +156,11 @@ def parse_instruction(text: str, index: CategoryIndex) -> Instruction:
     wh = bool(main_tokens) and (main_tokens[0] in g.WH_WORDS or joined.startswith("how many"))
     if viewpoint is not None and viewpoint.categories and not wh:
         if target is None:  # "facing the windows, left": one of the windows
-            target = NounPhrase(mention=viewpoint.mention)
+            target = NounPhrase(mention=(view.shown or viewpoint).mention)
         elif target.mention is None or target.mention.phrase in ("one", "ones"):
             # "facing the chairs, choose the second from the left", "... the one on the
             # left": one of the chairs
-            target = replace(target, mention=viewpoint.mention)
+            target = replace(target, mention=(view.shown or viewpoint).mention)
     falls = bool(g.FALL_TRIGGERS.search(joined))
     if (g.REMOVAL_TRIGGERS.search(joined) and (falls or _asks_consequence(tokens))) or (
         falls and target is not None and not target.is_any
@@ -630,6 +630,9 @@ class _View:
     entity: NounPhrase | None = None
     standing: bool = False
     observer: NounPhrase | None = None
+    #: what the entity is shown "with" ("facing the wall with bags on it": the bags), the
+    #: things an instruction that names nothing else picks among
+    shown: NounPhrase | None = None
 
 
 def _viewpoint(tokens: tuple[str, ...], index: CategoryIndex) -> _View:
@@ -643,6 +646,7 @@ def _viewpoint(tokens: tuple[str, ...], index: CategoryIndex) -> _View:
     named: list[NounPhrase] = [np for np in nps if not np.is_any]  # type: ignore[misc]
     if not named:
         return _View()
+    every = list(named)
     # the thing looked at is the phrase right after the last looking word ("facing the
     # picture on the wall": the picture), else the last one named ("standing at the door")
     looking = max((i for i, t in enumerate(tokens) if t in g.LOOKING), default=None)
@@ -660,7 +664,18 @@ def _viewpoint(tokens: tuple[str, ...], index: CategoryIndex) -> _View:
     seen_from = any(
         t in g.LOOKING and nxt == "from" for t, nxt in itertools.pairwise(tokens)
     ) and not any(t in _LOOKED_AT for t in tokens)
-    return _View(named[-1], standing or seen_from, observer)
+    shown = next((np for np in every if np is not observer and _after_with(tokens, np)), None)
+    return _View(named[-1], standing or seen_from, observer, shown)
+
+
+def _after_with(tokens: tuple[str, ...], np: NounPhrase) -> bool:
+    """Whether the phrase follows "with" (determiners and numbers between)."""
+    if np.mention is None:
+        return False
+    j = np.mention.start - 1
+    while j >= 0 and (tokens[j] in g.DETERMINERS or tokens[j].isdigit()):
+        j -= 1
+    return j >= 0 and tokens[j] == "with"
 
 
 def _observer(

@@ -373,3 +373,26 @@ def test_than_the_other_one_is_no_anchor() -> None:
     # never measured from "the other one" (any entity: the table by the chair)
     answer = REASONER.answer("the table closer to the entrance than the other one", ctx)
     assert "'one'" not in answer.explanation, answer.explanation
+
+
+def test_two_colours_joined_by_and_describe_one_thing() -> None:
+    # "has a blue and grey item on it": both colours are the item's, none the chair's
+    ctx = _room([FLOOR, (1, "chair", (-2.0, 0.0, 0.45), BOX, {"rgb": [110, 70, 40]}),
+                 (2, "chair", (2.0, 0.0, 0.45), BOX, {"rgb": [115, 75, 45]}),
+                 (3, "box", (2.0, 0.0, 1.0), (0.3, 0.3, 0.2),
+                  {"rgb": [90, 100, 140]})])  # fmt: skip
+    answer = REASONER.answer("the brown chair has a blue and grey box on it", ctx)
+    assert answer.entity_ids == (2,), answer.explanation
+    assert answer.explanation.startswith("read as: refer 'brown chair'; supports"), (
+        answer.explanation
+    )
+
+
+def test_facing_x_with_ys_picks_among_the_ys() -> None:
+    # "facing the wall with bags on it, it is the one on the left": one of the bags
+    ctx = _room([FLOOR, (1, "wall", (0.0, 3.95, 1.25), (8.0, 0.1, 2.5)),
+                 (2, "bag", (-1.0, 3.8, 1.5), (0.4, 0.2, 0.5)),
+                 (3, "bag", (1.0, 3.8, 1.5), (0.4, 0.2, 0.5))])  # fmt: skip
+    answer = REASONER.answer("Facing the wall with bags on it, it is the one on the left.", ctx)
+    assert answer.entity_ids == (2,), answer.explanation
+    assert "refer 'bag'" in answer.explanation and "facing 'wall'" in answer.explanation
