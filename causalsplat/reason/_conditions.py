@@ -112,8 +112,8 @@ def removes(tokens: tuple[str, ...]) -> bool:
     """
     lemmas = [lemma(t) for t in tokens]
     for i, lem in enumerate(lemmas):
-        if lem in _REMOVE_ALONE:
-            return True
+        if lem in _REMOVE_ALONE and not (i > 0 and tokens[i - 1] in _DETERMINERS):
+            return True  # not a noun after its determiner ("the trash can", "a break")
         if lem == "go" and i == len(tokens) - 1 and i > 0:
             return True  # "when the table goes": said of a thing, going is leaving
         nxt = lemmas[i + 1] if i + 1 < len(lemmas) else ""
@@ -124,12 +124,28 @@ def removes(tokens: tuple[str, ...]) -> bool:
     return False
 
 
+#: Words before a noun: a removal word after one is a thing ("the trash can").
+_DETERMINERS = frozenset({"the", "a", "an", "this", "that", "these", "those", "my", "your",
+                          "our", "his", "her", "their", "its", "some", "any"})  # fmt: skip
 #: Auxiliaries and particles of a removal clause ("is", "were", "to be", "rid of").
 _AUXILIARIES = frozenset({"is", "are", "was", "were", "be", "been", "being", "gets", "got",
                           "get", "would", "will", "could", "can", "did", "do", "does", "to",
                           "rid", "of", "way", "no", "longer", "not", "there", "suddenly",
                           "just", "ever", "somehow", "completely", "entirely", "fully",
                           "had", "has", "have", "then", "away", "aside", "apart"})  # fmt: skip
+
+
+def _names_removed(clause: tuple[str, ...], k: int) -> bool:
+    """Whether the clause's word ``k`` may name what is removed: not an agent, an auxiliary
+    or a verb, unless a noun: after a determiner ("the trash"), or "can" after one ("the
+    trash can"; the modal's subject has no determiner right before the modal's noun)."""
+    t = clause[k]
+    noun_after_determiner = k > 0 and clause[k - 1] in _DETERMINERS
+    if t == "can" and k > 1 and clause[k - 2] in _DETERMINERS:
+        return True
+    if t in AGENTS or t in _AUXILIARIES:
+        return False
+    return not _verb(t) or noun_after_determiner
 
 
 def _verb(word: str) -> bool:
@@ -244,9 +260,7 @@ def _stated(tokens: tuple[str, ...]) -> tuple[tuple[str, ...], tuple[str, ...]] 
         question = tokens[k:]
         if not asks_what_follows(question):
             return None
-        kept = tuple(
-            t for t in statement if t not in AGENTS and t not in _AUXILIARIES and not _verb(t)
-        )
+        kept = tuple(t for k, t in enumerate(statement) if _names_removed(statement, k))
         return (kept, question) if kept else None
     return None
 
@@ -276,8 +290,6 @@ def split_condition(
         clause = tokens[start:end]
         question = (*tokens[: i if width == 1 or tokens[i] != "what" else i + 1], *tokens[end:])
         question = tuple(t for k, t in enumerate(question) if t != "," or k > 0)
-        kept = tuple(
-            t for t in clause if t not in AGENTS and t not in _AUXILIARIES and not _verb(t)
-        )
+        kept = tuple(t for k, t in enumerate(clause) if _names_removed(clause, k))
         return kept, question
     return _without(tokens) or _stated(tokens)

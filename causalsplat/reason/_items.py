@@ -103,12 +103,13 @@ _FACING = frozenset({"facing", "faces", "faced", "face", "turned", "pointing", "
 
 
 def _orientation_end(tokens: tuple[str, ...], i: int) -> int | None:
-    """Where "facing (to / towards) (the) left / right (side)" ends when it starts at ``i``:
-    the way a thing faces, which no stored relation or attribute holds."""
+    """Where "facing (up / down and) (to / towards) (the) left / right (side)" ends when it
+    starts at ``i``: the way a thing faces, which no stored relation or attribute holds."""
     if tokens[i] not in _FACING:
         return None
     j = i + 1
-    for optional in (("to", "towards", "toward"), ("the",)):
+    for optional in (("up", "down", "forward", "away", "out"), ("and",), ("to", "towards",
+                     "toward"), ("the",)):  # fmt: skip
         if j < len(tokens) and tokens[j] in optional:
             j += 1
     if j >= len(tokens) or tokens[j] not in ("left", "right"):
@@ -148,7 +149,7 @@ def _group_of(tokens: tuple[str, ...], i: int) -> bool:
     return (
         i + 3 < len(tokens)
         and tokens[i] in ("in", "of", "from", "among", "within")
-        and tokens[i + 1] == "the"
+        and tokens[i + 1] in ("the", "a", "this", "that")
         and tokens[i + 2] in _GROUPS
         and tokens[i + 3] == "of"
     )

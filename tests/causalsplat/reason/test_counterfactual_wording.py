@@ -13,6 +13,7 @@ import pytest
 from causalsplat.objects import objects_to_scene_graph, parse_objects, read_objects
 from causalsplat.reason import SceneContext
 from causalsplat.reason._conditions import lemma, removes, split_condition
+from causalsplat.reason._text import tokenize
 from causalsplat.reason.offline import OfflineReasoner
 from causalsplat.reason.parse import parse_instruction
 from queries import Op
@@ -184,3 +185,14 @@ def test_without_and_go_elsewhere_remove_nothing(text: str) -> None:
     # "without" describes unless the question asks what falls; "go" removes only a thing
     # that goes at the end of its clause
     assert split_condition(tuple(text.replace("?", " ?").split())) is None
+
+
+def test_a_noun_that_is_also_a_verb_of_removal_is_no_removal() -> None:
+    # "trash" discards as a verb, and names a thing in "the trash can": a viewpoint clause
+    # that mentions a trash can removes nothing, and removing a trash can removes it whole
+    assert not removes(("you", "were", "standing", "by", "the", "trash", "can"))
+    assert removes(("the", "lamp", "is", "trashed"))
+    split = split_condition(tokenize("what falls if the trash can is removed?"))
+    assert split is not None and split[0] == ("the", "trash", "can")
+    split = split_condition(tokenize("if the table can be removed, what falls?"))
+    assert split is not None and "table" in split[0]

@@ -189,7 +189,11 @@ def test_which_way_a_thing_faces_is_not_where_it_stands() -> None:
     # the western chair, while only the colour singles one out
     ctx = _room([FLOOR, (1, "chair", (-2.0, 0.0, 0.45), BOX, {"rgb": [30, 30, 30]}),
                  (2, "chair", (2.0, 0.0, 0.45), BOX, {"rgb": [200, 40, 40]})])  # fmt: skip
-    for text in ("this is a red chair facing left.", "the red chair is facing to the left side"):
+    for text in (
+        "this is a red chair facing left.",
+        "the red chair is facing to the left side",
+        "this red chair is facing down and left.",
+    ):
         answer = REASONER.answer(text, ctx)
         assert answer.entity_ids == (2,), answer.explanation
         assert "side" not in answer.explanation.splitlines()[0]
@@ -203,10 +207,13 @@ def test_a_row_of_like_things_is_one_of_them_beside_the_others() -> None:
                  (3, "shoe", (-3.0, -0.2, 0.05), (0.3, 0.1, 0.1)),
                  (4, "shoe", (3.0, 2.0, 0.05), (0.3, 0.1, 0.1)),
                  (5, "window", (-3.95, -0.6, 1.5), (0.1, 1.0, 1.0))])  # fmt: skip
-    text = "facing the window, in the row of shoes the shoe second from the right"
-    answer = REASONER.answer(text, ctx)
-    assert answer.entity_ids == (2,), answer.explanation
-    assert "near 'shoe'" in answer.explanation
+    for text in (
+        "facing the window, in the row of shoes the shoe second from the right",
+        "facing the window, the shoe in a row of shoes, second from the right",
+    ):
+        answer = REASONER.answer(text, ctx)
+        assert answer.entity_ids == (2,), answer.explanation
+        assert "near 'shoe'" in answer.explanation
 
 
 def test_a_shape_word_before_a_colour_and_a_noun_modifies_the_noun() -> None:
