@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 from causalsplat.colors import SHADES, is_color_word
 from causalsplat.reason import _grammar as g
-from causalsplat.reason._mentions import CategoryIndex, foreign_at, mention_at
+from causalsplat.reason._mentions import CategoryIndex, foreign_at, may_modify, mention_at
 from causalsplat.reason._text import ORDINALS
 from queries import Metric, Op
 
@@ -286,17 +286,25 @@ def read_items(
         mention = mention_at(index, tokens, i)
         if mention is not None:
             mods = [m for _, m in pending]
-            previous = items[-1] if items else None
-            if (
-                previous is not None
-                and previous.np is not None
-                and previous.end == i
+            start = i
+            while (
+                items
+                and items[-1].np is not None
                 and not mention.generic
+                and (
+                    items[-1].end == start
+                    or (
+                        0 < start - items[-1].end <= 2
+                        and all(may_modify(index.lexicon, t) for t in tokens[items[-1].end : start])
+                        and not pending
+                    )
+                )
             ):
-                # a noun compound ("bathroom sink"): the last noun is the head; never a
-                # word for any entity after a noun ("the door which opens")
-                items.pop()
+                # a noun compound ("bathroom sink", "wall portrait picture"): the last noun
+                # is the head; never a word for any entity after a noun ("the door which")
+                previous = items.pop()
                 mods = [*_mods_of(previous.np), *mods]
+                start = previous.start
             items.append(Item(i, mention.end, np=_noun_phrase(mention, mods)))
             pending.clear()
             i = mention.end

@@ -229,7 +229,7 @@ def foreign_at(index: CategoryIndex, tokens: tuple[str, ...], i: int) -> Mention
             # a noun modifying a later one: "office chair", "dresser cabinet", "square
             # gray sofa chair", "the wood burning stove"
             return None
-        if not _may_modify(lex, tokens[j]):
+        if not may_modify(lex, tokens[j]):
             break
     lemma = lex.lemma(tokens[i])
     cats, score = _best(index.resolve_foreign(lemma))
@@ -248,7 +248,7 @@ _PHRASE_ENDS = frozenset({"of", "on", "in", "at", "with", "by", "for", "from", "
 _PART_WORDS = frozenset({"top", "bottom", "side", "front", "back", "corner", "end", "edge"})
 
 
-def _may_modify(lex: Lexicon, word: str) -> bool:
+def may_modify(lex: Lexicon, word: str) -> bool:
     """Whether ``word`` may stand inside a noun phrase before its head ("wood *burning*
     stove", "square *gray* chair")."""
     if word in lex.colors or is_color_word(word) or word in _PART_WORDS:

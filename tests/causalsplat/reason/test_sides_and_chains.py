@@ -403,3 +403,21 @@ def test_facing_x_with_ys_picks_among_the_ys() -> None:
     answer = REASONER.answer("Facing the wall with bags on it, it is the one on the left.", ctx)
     assert answer.entity_ids == (2,), answer.explanation
     assert "refer 'bag'" in answer.explanation and "facing 'wall'" in answer.explanation
+
+
+def test_a_compound_s_last_noun_is_its_head_across_modifier_words() -> None:
+    # "a hanging wall portrait picture", "the wall mounted shelf": pictures and shelves,
+    # never the wall; "a black desk arm chair": a chair
+    ctx = _room([FLOOR, (1, "wall", (0.0, 3.95, 1.25), (8.0, 0.1, 2.5)),
+                 (2, "picture", (-1.0, 3.85, 1.6), (0.6, 0.05, 0.5)),
+                 (3, "shelf", (1.5, 3.8, 1.5), (1.0, 0.3, 0.05)),
+                 (4, "desk", (0.0, -3.0, 0.4), (1.4, 0.7, 0.8)),
+                 (5, "chair", (0.0, -2.4, 0.45), BOX)])  # fmt: skip
+    cases = {
+        "this is a hanging wall portrait picture.": "picture",
+        "the wall mounted shelf": "shelf",
+        "a black desk arm chair": "black chair",
+    }
+    for text, category in cases.items():
+        answer = REASONER.answer(text, ctx)
+        assert answer.explanation.startswith(f"read as: refer '{category}'"), answer.explanation
