@@ -312,8 +312,14 @@ def read_items(
         mod = _modifier(t, index)
         if mod is not None and mod.kind == "attribute":
             compound = foreign_at(index, tokens, i)
-            if compound is not None and compound.end - compound.start > 1:
-                mod = None  # "the coffee maker": a thing, not a coffee-coloured maker
+            if (
+                compound is not None
+                and compound.end - compound.start > 1
+                and not any(mention_at(index, tokens, j) for j in range(i + 1, compound.end))
+            ):
+                # "the coffee maker": a thing, not a coffee-coloured maker; "the blue book"
+                # (a WordNet compound too) is a book that is blue when books are here
+                mod = None
         if mod is not None:
             pending.append((i, mod))
             i += 1

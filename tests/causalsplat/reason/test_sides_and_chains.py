@@ -421,3 +421,15 @@ def test_a_compound_s_last_noun_is_its_head_across_modifier_words() -> None:
     for text, category in cases.items():
         answer = REASONER.answer(text, ctx)
         assert answer.explanation.startswith(f"read as: refer '{category}'"), answer.explanation
+
+
+def test_a_colour_and_a_noun_that_wordnet_joins_stay_a_colour_when_the_noun_names_a_kind() -> None:
+    # WordNet knows "blue book" (an exam booklet): with books here it is a book that is blue
+    ctx = _room([FLOOR, (1, "book", (-1.0, 0.0, 0.8), (0.3, 0.2, 0.05), {"rgb": [30, 50, 160]}),
+                 (2, "book", (1.0, 0.0, 0.8), (0.4, 0.3, 0.06), {"rgb": [170, 40, 40]}),
+                 (3, "bowl", (-1.3, 0.0, 0.8), (0.2, 0.2, 0.1)),
+                 (4, "bowl", (1.3, 0.0, 0.8), (0.2, 0.2, 0.1))])  # fmt: skip
+    answer = REASONER.answer("the blue book", ctx)
+    assert answer.entity_ids == (1,), answer.explanation
+    answer = REASONER.answer("the bowl closest to the blue book", ctx)
+    assert answer.entity_ids == (3,), answer.explanation
