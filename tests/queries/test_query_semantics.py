@@ -161,6 +161,26 @@ def _d3(v: tuple[float, ...]) -> tuple[str, str, str]:
     return (double(v[0]), double(v[1]), double(v[2]))
 
 
+Point = tuple[float, float, float]
+
+
+def _box(spans: list[tuple[float, float]]) -> tuple[Point, Point, Point]:
+    """A box's low and high corners and its centre (the centre rounded as a store would)."""
+    lo = (min(spans[0]), min(spans[1]), min(spans[2]))
+    hi = (max(spans[0]), max(spans[1]), max(spans[2]))
+    mid = ((lo[0] + hi[0]) * 0.5, (lo[1] + hi[1]) * 0.5, (lo[2] + hi[2]) * 0.5)
+    return lo, hi, mid
+
+
+def _engines_agree(metric: str, p: Point, mid: Point, lo: Point, hi: Point, got: float) -> None:
+    """SQLite, Oxigraph and rdflib give the metric's value exactly as Python does."""
+    sql = reference_distance(SQL, metric, _q3(p), _q3(mid), _q3(lo), _q3(hi))
+    assert _sqlite(sql) == got
+    sparql = reference_distance(SPARQL, metric, _d3(p), _d3(mid), _d3(lo), _d3(hi))
+    ox_d, rd_d = _sparql(sparql)
+    assert float(str(ox_d)) == got and rd_d == got
+
+
 @settings(max_examples=40, deadline=None)
 @given(
     st.tuples(finite, finite, finite), st.lists(st.tuples(finite, finite), min_size=3, max_size=3)
@@ -168,9 +188,7 @@ def _d3(v: tuple[float, ...]) -> tuple[str, str, str]:
 def test_box_distance_agrees_across_engines_and_with_exact_arithmetic(
     p: tuple[float, float, float], spans: list[tuple[float, float]]
 ) -> None:
-    lo = (min(spans[0]), min(spans[1]), min(spans[2]))
-    hi = (max(spans[0]), max(spans[1]), max(spans[2]))
-    mid = ((lo[0] + hi[0]) * 0.5, (lo[1] + hi[1]) * 0.5, (lo[2] + hi[2]) * 0.5)
+    lo, hi, mid = _box(spans)
     got = reference_distance(PY, "box_distance", p, mid, lo, hi)
     # exact: the squared distance to the nearest point of the box, in rationals
     gaps = [max(Fraction(a) - Fraction(c), Fraction(0), Fraction(c) - Fraction(b))
@@ -178,12 +196,7 @@ def test_box_distance_agrees_across_engines_and_with_exact_arithmetic(
     exact = sum(g * g for g in gaps)
     # a subtraction, a square and two additions: a few ulps; squares of tiny gaps underflow
     assert abs(Fraction(got) - exact) <= Fraction(8, 2**53) * exact + Fraction(2.3e-308)
-    sql = reference_distance(SQL, "box_distance", _q3(p), _q3(mid), _q3(lo), _q3(hi))
-    assert _sqlite(sql) == got
-
-    sparql = reference_distance(SPARQL, "box_distance", _d3(p), _d3(mid), _d3(lo), _d3(hi))
-    ox_d, rd_d = _sparql(sparql)
-    assert float(str(ox_d)) == got and rd_d == got
+    _engines_agree("box_distance", p, mid, lo, hi, got)
 
 
 @settings(max_examples=40, deadline=None)
@@ -193,9 +206,7 @@ def test_box_distance_agrees_across_engines_and_with_exact_arithmetic(
 def test_box_centroid_distance_agrees_across_engines_and_with_exact_arithmetic(
     p: tuple[float, float, float], spans: list[tuple[float, float]]
 ) -> None:
-    lo = (min(spans[0]), min(spans[1]), min(spans[2]))
-    hi = (max(spans[0]), max(spans[1]), max(spans[2]))
-    mid = ((lo[0] + hi[0]) * 0.5, (lo[1] + hi[1]) * 0.5, (lo[2] + hi[2]) * 0.5)
+    lo, hi, mid = _box(spans)
     got = reference_distance(PY, "box_centroid_distance", p, mid, lo, hi)
     # exact: the squared box distance plus the weight times the squared centroid distance
     gaps = [max(Fraction(a) - Fraction(c), Fraction(0), Fraction(c) - Fraction(b))
@@ -208,12 +219,7 @@ def test_box_centroid_distance_agrees_across_engines_and_with_exact_arithmetic(
     eps = Fraction(1, 2**52)
     bound = 8 * eps * box_part + 16 * eps * Fraction(CENTROID_TIE_WEIGHT) * centre + 2 * eps * exact
     assert abs(Fraction(got) - exact) <= bound + Fraction(2.3e-308)
-    sql = reference_distance(SQL, "box_centroid_distance", _q3(p), _q3(mid), _q3(lo), _q3(hi))
-    assert _sqlite(sql) == got
-
-    sparql = reference_distance(SPARQL, "box_centroid_distance", _d3(p), _d3(mid), _d3(lo), _d3(hi))
-    ox_d, rd_d = _sparql(sparql)
-    assert float(str(ox_d)) == got and rd_d == got
+    _engines_agree("box_centroid_distance", p, mid, lo, hi, got)
 
 
 @settings(max_examples=60, deadline=None)
@@ -225,9 +231,7 @@ def test_box_centroid_distance_agrees_across_engines_and_with_exact_arithmetic(
 def test_footprint_distances_agree_across_engines_and_with_exact_arithmetic(
     p: tuple[float, float, float], spans: list[tuple[float, float]], metric: str
 ) -> None:
-    lo = (min(spans[0]), min(spans[1]), min(spans[2]))
-    hi = (max(spans[0]), max(spans[1]), max(spans[2]))
-    mid = ((lo[0] + hi[0]) * 0.5, (lo[1] + hi[1]) * 0.5, (lo[2] + hi[2]) * 0.5)
+    lo, hi, mid = _box(spans)
     got = reference_distance(PY, metric, p, mid, lo, hi)
     # exact, in rationals: per horizontal axis the offset from the nearer edge line and from
     # the middle line; the long axis is chosen as the doubles compare the two extents
@@ -252,12 +256,7 @@ def test_footprint_distances_agree_across_engines_and_with_exact_arithmetic(
     delta = 8 * eps * m
     bound = sum(2 * abs(x) * delta + delta * delta for x in parts) + 8 * eps * exact
     assert abs(Fraction(got) - exact) <= bound + Fraction(2.3e-308)
-    sql = reference_distance(SQL, metric, _q3(p), _q3(mid), _q3(lo), _q3(hi))
-    assert _sqlite(sql) == got
-
-    sparql = reference_distance(SPARQL, metric, _d3(p), _d3(mid), _d3(lo), _d3(hi))
-    ox_d, rd_d = _sparql(sparql)
-    assert float(str(ox_d)) == got and rd_d == got
+    _engines_agree(metric, p, mid, lo, hi, got)
 
 
 @settings(max_examples=100, deadline=None)
