@@ -35,6 +35,8 @@ cushion?").
 
 from __future__ import annotations
 
+from causalsplat.reason._grammar import DETERMINERS
+
 #: Words that open a condition clause (the first token of a two-word one is the key).
 SUBORDINATORS = frozenset({"if", "when", "once", "after", "suppose", "supposing", "imagine",
                            "assuming", "assume", "should", "whenever", "say"})  # fmt: skip
@@ -112,7 +114,7 @@ def removes(tokens: tuple[str, ...]) -> bool:
     """
     lemmas = [lemma(t) for t in tokens]
     for i, lem in enumerate(lemmas):
-        if lem in _REMOVE_ALONE and not (i > 0 and tokens[i - 1] in _DETERMINERS):
+        if lem in _REMOVE_ALONE and not (i > 0 and tokens[i - 1] in DETERMINERS):
             return True  # not a noun after its determiner ("the trash can", "a break")
         if lem == "go" and i == len(tokens) - 1 and i > 0:
             return True  # "when the table goes": said of a thing, going is leaving
@@ -124,9 +126,6 @@ def removes(tokens: tuple[str, ...]) -> bool:
     return False
 
 
-#: Words before a noun: a removal word after one is a thing ("the trash can").
-_DETERMINERS = frozenset({"the", "a", "an", "this", "that", "these", "those", "my", "your",
-                          "our", "his", "her", "their", "its", "some", "any"})  # fmt: skip
 #: Auxiliaries and particles of a removal clause ("is", "were", "to be", "rid of").
 _AUXILIARIES = frozenset({"is", "are", "was", "were", "be", "been", "being", "gets", "got",
                           "get", "would", "will", "could", "can", "did", "do", "does", "to",
@@ -140,8 +139,8 @@ def _names_removed(clause: tuple[str, ...], k: int) -> bool:
     or a verb, unless a noun: after a determiner ("the trash"), or "can" after one ("the
     trash can"; the modal's subject has no determiner right before the modal's noun)."""
     t = clause[k]
-    noun_after_determiner = k > 0 and clause[k - 1] in _DETERMINERS
-    if t == "can" and k > 1 and clause[k - 2] in _DETERMINERS:
+    noun_after_determiner = k > 0 and clause[k - 1] in DETERMINERS
+    if t == "can" and k > 1 and clause[k - 2] in DETERMINERS:
         return True
     if t in AGENTS or t in _AUXILIARIES:
         return False

@@ -19,10 +19,10 @@ _SIDE = r"(?:(?:to|on|at|towards?) )?(?:the )?(?:(?:far|very) )?"
 #: A superlative side before a partitive "of": "the furthest right of the four bottles" is
 #: the rightmost of them, not something right of them.
 _MOST_SIDE = r"(?:the |one )?(?:furthest|farthest|most) (?:to the )?"
+#: A small count of things ("the two chairs", "the 3 of them").
+_COUNT = r"(?:two|three|four|five|six|both|\d+)"
 #: "the left (hand one) of the two chairs": one of a counted group, not something left of it.
-_OF_COUNT = (
-    r"(?: hand)?(?: one)? of(?= (?:the |these |those )?(?:two|three|four|five|six|both|\d+) )"
-)
+_OF_COUNT = r"(?: hand)?(?: one)? of(?= (?:the |these |those )?" + _COUNT + " )"
 #: Words for the room as a whole ("in the middle of the room", "in the corner of the office").
 _ROOM = r"(?:room|space|area)"
 CUE_PATTERNS: tuple[tuple[str, str], ...] = (
@@ -34,7 +34,7 @@ CUE_PATTERNS: tuple[tuple[str, str], ...] = (
                    + _MOST_SIDE + "right(?= (?:one |ones )?of )|the right" + _OF_COUNT),
     ("side_middle", r"(?:in|at) the (?:very )?(?:middle|center|centre)"
                     r"(?: of (?:the|a|this) (?:group|row|line|set|cluster|bunch|series|others|"
-                    r"rest)(?: of)?| of the(?= (?:two|three|four|five|six|\d+) ))?"),
+                    r"rest)(?: of)?| of the(?= " + _COUNT + " ))?"),
     ("place_centre", r"(?:(?:in|at|near|towards?|by) )?the (?:very |exact )?"
                      r"(?:middle|center|centre) of (?:the|this) " + _ROOM),
     ("place_corner", r"(?:in|at|into|near|towards?|by) (?:the|a) (?:far )?corner"

@@ -15,7 +15,13 @@ from dataclasses import dataclass
 
 from causalsplat.colors import SHADES, is_color_word
 from causalsplat.reason import _grammar as g
-from causalsplat.reason._mentions import CategoryIndex, foreign_at, may_modify, mention_at
+from causalsplat.reason._mentions import (
+    CategoryIndex,
+    colour_word,
+    foreign_at,
+    may_modify,
+    mention_at,
+)
 from causalsplat.reason._text import ORDINALS
 from queries import Metric, Op
 
@@ -73,7 +79,7 @@ def _modifier(word: str, index: CategoryIndex) -> Modifier | None:
         return Modifier("ordinal", number=ORDINALS[word])
     if word in ("last", "final"):
         return Modifier("ordinal", number=-1)
-    if word in index.attribute_words or word in index.lexicon.colors or is_color_word(word):
+    if word in index.attribute_words or colour_word(index.lexicon, word):
         return Modifier("attribute", word)
     return None
 
@@ -229,7 +235,7 @@ def read_items(
             and pending
             and pending[-1][1].kind == "attribute"
             and i + 1 < len(tokens)
-            and (tokens[i + 1] in index.lexicon.colors or is_color_word(tokens[i + 1]))
+            and colour_word(index.lexicon, tokens[i + 1])
         ):
             i += 1  # "a blue and grey item": both colours of the one item
             continue

@@ -248,10 +248,15 @@ _PHRASE_ENDS = frozenset({"of", "on", "in", "at", "with", "by", "for", "from", "
 _PART_WORDS = frozenset({"top", "bottom", "side", "front", "back", "corner", "end", "edge"})
 
 
+def colour_word(lex: Lexicon, word: str) -> bool:
+    """Whether ``word`` names a colour (WordNet's colour nouns or a basic colour term)."""
+    return word in lex.colors or is_color_word(word)
+
+
 def may_modify(lex: Lexicon, word: str) -> bool:
     """Whether ``word`` may stand inside a noun phrase before its head ("wood *burning*
     stove", "square *gray* chair")."""
-    if word in lex.colors or is_color_word(word) or word in _PART_WORDS:
+    if colour_word(lex, word) or word in _PART_WORDS:
         return True
     return (
         word.isalpha()

@@ -664,18 +664,21 @@ def _viewpoint(tokens: tuple[str, ...], index: CategoryIndex) -> _View:
     seen_from = any(
         t in g.LOOKING and nxt == "from" for t, nxt in itertools.pairwise(tokens)
     ) and not any(t in _LOOKED_AT for t in tokens)
-    shown = next((np for np in every if np is not observer and _after_with(tokens, np)), None)
+    shown = next(
+        (np for np in every if np is not observer and _word_before(tokens, np) == "with"), None
+    )
     return _View(named[-1], standing or seen_from, observer, shown)
 
 
-def _after_with(tokens: tuple[str, ...], np: NounPhrase) -> bool:
-    """Whether the phrase follows "with" (determiners and numbers between)."""
+def _word_before(tokens: tuple[str, ...], np: NounPhrase) -> str | None:
+    """The word before the phrase, past its determiners and numbers ("with *the 2* bags"),
+    or ``None`` at the start."""
     if np.mention is None:
-        return False
+        return None
     j = np.mention.start - 1
     while j >= 0 and (tokens[j] in g.DETERMINERS or tokens[j].isdigit()):
         j -= 1
-    return j >= 0 and tokens[j] == "with"
+    return tokens[j] if j >= 0 else None
 
 
 def _observer(
@@ -871,7 +874,8 @@ class _Reader:
             and np.resolved
             and not np.is_any
             and not self.constraints
-            and not self._for_before(np)
+            # "a light source for the floor": what the thing is for, never the thing
+            and _word_before(self.tokens, np) != "for"
         ):
             self.target = np
         elif (
@@ -907,17 +911,6 @@ class _Reader:
         else:
             self.free = np
         return False
-
-    def _for_before(self, np: NounPhrase) -> bool:
-        """Whether "for" comes right before the phrase ("a light source for the floor":
-        what the thing is for, never the thing)."""
-        m = np.mention
-        if m is None or m.start == 0:
-            return False
-        j = m.start - 1
-        while j > 0 and self.tokens[j] in g.DETERMINERS:
-            j -= 1
-        return self.tokens[j] == "for"
 
     def _before_its_noun(self, k: int) -> bool:
         """ "the closest chair (to the door)": a closest / farthest cue without its "to" /
