@@ -172,6 +172,13 @@ def _box(spans: list[tuple[float, float]]) -> tuple[Point, Point, Point]:
     return lo, hi, mid
 
 
+def _exact_box_distance(p: Point, lo: Point, hi: Point) -> Fraction:
+    """The squared distance from ``p`` to the nearest point of the box, in rationals."""
+    gaps = [max(Fraction(a) - Fraction(c), Fraction(0), Fraction(c) - Fraction(b))
+            for c, a, b in zip(p, lo, hi, strict=True)]  # fmt: skip
+    return sum((g * g for g in gaps), Fraction(0))
+
+
 def _engines_agree(metric: str, p: Point, mid: Point, lo: Point, hi: Point, got: float) -> None:
     """SQLite, Oxigraph and rdflib give the metric's value exactly as Python does."""
     sql = reference_distance(SQL, metric, _q3(p), _q3(mid), _q3(lo), _q3(hi))
@@ -190,10 +197,7 @@ def test_box_distance_agrees_across_engines_and_with_exact_arithmetic(
 ) -> None:
     lo, hi, mid = _box(spans)
     got = reference_distance(PY, "box_distance", p, mid, lo, hi)
-    # exact: the squared distance to the nearest point of the box, in rationals
-    gaps = [max(Fraction(a) - Fraction(c), Fraction(0), Fraction(c) - Fraction(b))
-            for c, a, b in zip(p, lo, hi, strict=True)]  # fmt: skip
-    exact = sum(g * g for g in gaps)
+    exact = _exact_box_distance(p, lo, hi)
     # a subtraction, a square and two additions: a few ulps; squares of tiny gaps underflow
     assert abs(Fraction(got) - exact) <= Fraction(8, 2**53) * exact + Fraction(2.3e-308)
     _engines_agree("box_distance", p, mid, lo, hi, got)
@@ -209,10 +213,8 @@ def test_box_centroid_distance_agrees_across_engines_and_with_exact_arithmetic(
     lo, hi, mid = _box(spans)
     got = reference_distance(PY, "box_centroid_distance", p, mid, lo, hi)
     # exact: the squared box distance plus the weight times the squared centroid distance
-    gaps = [max(Fraction(a) - Fraction(c), Fraction(0), Fraction(c) - Fraction(b))
-            for c, a, b in zip(p, lo, hi, strict=True)]  # fmt: skip
     centre = sum((Fraction(c) - Fraction(m)) ** 2 for c, m in zip(p, mid, strict=True))
-    box_part = sum(g * g for g in gaps)
+    box_part = _exact_box_distance(p, lo, hi)
     exact = box_part + Fraction(CENTROID_TIE_WEIGHT) * centre
     # the box part as box_distance's bound, the centroid part a few more roundings of its
     # own (the midpoint is a rounded input), the sum one more
