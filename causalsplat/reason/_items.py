@@ -261,6 +261,13 @@ def read_items(
             items.append(Item(i, i + 4, cue=g.Cue("near", i, i + 4)))
             i += 4
             continue
+        if t in _POSITION_ADJECTIVES and tokens[i + 1 : i + 2] in (("left",), ("right",)):
+            # "the top left", "on the bottom right": the highest or lowest of them, and of
+            # those the leftmost or rightmost (a position along two axes)
+            metric, direction = g.EXTREMES[_POSITION_ADJECTIVES[t]]
+            pending.append((i, Modifier("extreme", t, direction=direction, metric=metric)))
+            i += 1
+            continue
         cue = g.find_cue(tokens, tuple(offsets), joined, i)
         if cue is not None:
             flush()

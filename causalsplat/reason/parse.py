@@ -845,6 +845,7 @@ class _Reader:
             elif it.separator:
                 self.free = None
                 self.closed = self.target is not None
+                negated = False  # "the couch with no back, by the plant": by it
             k += 1
         return self._finish()
 

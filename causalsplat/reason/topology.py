@@ -3,7 +3,8 @@
 :class:`Planner` turns the noun phrases of an :class:`~causalsplat.reason.parse.Instruction`
 into steps of a :class:`~queries.GraphQuery`: candidates by category (and stored attribute),
 then one step per relation to an anchor (anchors are planned the same way, recursively),
-then modifiers (largest, tallest, leftmost, second from the right...). Left and right rank
+then modifiers (largest, tallest, leftmost, second from the right, the upper left: the
+leftmost of the highest level...). Left and right rank
 by ``rightward``, seen from the observer (the scene centre, the viewpoint, or the place the
 observer stands at) looking at the candidates.
 
@@ -624,7 +625,11 @@ class Planner:
         b = self.b
         if np.extremes and b.size(step) > 1:
             metric, direction = np.extremes[0]
-            step = b.add(direction, step, metric=metric)
+            if metric is Metric.Z and np.side in ("left", "right"):
+                # "the upper left cabinet": of those on the highest level, the leftmost
+                step = self._level(step, direction)
+            else:
+                step = b.add(direction, step, metric=metric)
         if np.side in ("left", "right") and b.size(step) > 1:
             step = self._side(step, np.side, np.ordinal or 1)
         elif np.side == "middle" and b.size(step) > 2:
@@ -632,6 +637,29 @@ class Planner:
             # of five is the third from the left (of four, the second)
             step = self._side(step, "left", (b.size(step) + 1) // 2)
         return step
+
+    def _level(self, step: int, direction: Op) -> int:
+        """The candidates on the highest (``argmax``) or lowest level: the top one by
+        centroid height and those next below it (above it) whose box spans its centroid's
+        height or whose centroid its box spans (the upper cabinets of a kitchen, the books
+        of one shelf), as the ``k`` highest (lowest)."""
+        b = self.b
+        ids = b.value(step)
+        sign = -1.0 if direction is Op.ARGMAX else 1.0
+        order = sorted(ids, key=lambda i: sign * self.ctx.by_id[i].centroid[2])
+        top = self.ctx.by_id[order[0]]
+        k = 1
+        for i in order[1:]:
+            e = self.ctx.by_id[i]
+            if not (
+                e.bbox_min[2] <= top.centroid[2] <= e.bbox_max[2]
+                or top.bbox_min[2] <= e.centroid[2] <= top.bbox_max[2]
+            ):
+                break
+            k += 1
+        if k == len(ids):
+            return step
+        return b.add(direction, step, metric=Metric.Z, k=k)
 
     def _side_view(self, step: int) -> dict[str, list[float]] | None:
         """Where the observer stands to tell left from right among the candidates: looking

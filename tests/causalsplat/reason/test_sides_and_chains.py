@@ -433,3 +433,35 @@ def test_a_colour_and_a_noun_that_wordnet_joins_stay_a_colour_when_the_noun_name
     assert answer.entity_ids == (1,), answer.explanation
     answer = REASONER.answer("the bowl closest to the blue book", ctx)
     assert answer.entity_ids == (3,), answer.explanation
+
+
+def test_upper_left_is_the_leftmost_of_the_highest_level() -> None:
+    # kitchen cabinets on the north wall, two levels: upper (2, 3) and lower (4, 5). Facing
+    # the wall, "the upper left cabinet" is 2, the leftmost of the upper ones, neither the
+    # highest alone (3, a little higher) nor the leftmost of all (4, a lower one, further
+    # west); "the top right" / "the bottom left" read both words the same way
+    ctx = _room([FLOOR, (1, "wall", (0.0, 3.95, 1.25), (8.0, 0.1, 2.5)),
+                 (2, "cabinet", (-1.0, 3.6, 1.85), (0.8, 0.4, 0.8)),
+                 (3, "cabinet", (0.5, 3.6, 1.95), (0.8, 0.4, 0.8)),
+                 (4, "cabinet", (-2.0, 3.6, 0.45), (0.8, 0.6, 0.9)),
+                 (5, "cabinet", (1.5, 3.6, 0.45), (0.8, 0.6, 0.9))])  # fmt: skip
+    cases = {
+        "facing the wall, the upper left cabinet": 2,
+        "facing the wall, it is the cabinet on the top right": 3,
+        "facing the wall, the cabinet on the bottom left": 4,
+        "facing the wall, the highest cabinet": 3,
+    }
+    for text, expected in cases.items():
+        answer = REASONER.answer(text, ctx)
+        assert answer.entity_ids == (expected,), (text, answer.explanation)
+
+
+def test_a_negation_ends_with_its_clause() -> None:
+    # "the couch with no back, by the plant": by the plant, not away from it
+    ctx = _room([FLOOR, (1, "plant", (2.5, 0.0, 0.5), (0.4, 0.4, 1.0)),
+                 (2, "couch", (1.5, 0.0, 0.4), (0.8, 2.0, 0.8)),
+                 (3, "couch", (-2.0, 0.0, 0.4), (0.8, 2.0, 0.8))])  # fmt: skip
+    answer = REASONER.answer("The couch with no back, by the plant.", ctx)
+    assert answer.entity_ids == (2,), answer.explanation
+    answer = REASONER.answer("the couch that is not by the plant", ctx)
+    assert answer.entity_ids == (3,), answer.explanation
