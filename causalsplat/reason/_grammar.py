@@ -168,7 +168,11 @@ VIEW_TRIGGERS = frozenset({"facing", "face", "looking", "look", "standing", "sta
                            "viewing", "view", "seen", "entering", "enter", "walking",
                            *(_ENTERING := frozenset({"enters", "entered", "walk", "walks",
                                                      "walked", "come", "comes", "coming",
-                                                     "came"}))})  # fmt: skip
+                                                     "came"})),
+                           "back"})  # fmt: skip
+#: Whose back a viewpoint's "back" must be ("with your back to the window"; never "the
+#: chair with its back to the wall", which says which way the chair faces).
+OBSERVER_POSSESSIVES = frozenset({"your", "my", "our", "one", "ones"})
 #: Words that open a viewpoint clause inside a sentence ("the chair on the left *when*
 #: facing the bed") and words for the observer that may stand before its trigger.
 VIEW_SUBORDINATORS = frozenset({"when", "if", "while", "as", "whilst", "once", "after"})
@@ -187,7 +191,7 @@ LOOKING = frozenset({"facing", "face", "looking", "look", "viewing", "view", "se
                      "towards"})  # fmt: skip
 #: Viewpoint triggers after which the observer stands *at* the anchor (not looking at it).
 STANDING_AT = frozenset({"standing", "stand", "stood", "sitting", "sit", "sat", "entering",
-                         "enter", "walking",
+                         "enter", "walking", "back",
                          *_ENTERING})  # fmt: skip
 REMOVAL_TRIGGERS = re.compile(
     r"\b(?:remov\w*|take[ns]? away|took away|taking away|pull(?:ed|s)? (?:out|away)|"

@@ -183,6 +183,7 @@ def _noun_phrase(mention: object, mods: list[Modifier]) -> object:
         side=next((m.value for m in mods if m.kind == "side"), None),
         place=next((m.value for m in mods if m.kind == "place"), None),
         place_negated=any(m.negated for m in mods if m.kind == "place"),
+        side_negated=any(m.negated for m in mods if m.kind == "side"),
         ordinal=next((m.number for m in mods if m.kind == "ordinal"), None),
     )
 

@@ -240,7 +240,8 @@ def _describe(ins: Instruction) -> str:
     if target.place:
         parts.append(f"place {'not ' if target.place_negated else ''}{target.place}")
     if target.side:
-        parts.append(f"side {target.side}" + (f" #{target.ordinal}" if target.ordinal else ""))
+        side = f"{'not ' if target.side_negated else ''}{target.side}"
+        parts.append(f"side {side}" + (f" #{target.ordinal}" if target.ordinal else ""))
     if ins.viewpoint is not None:
         verb = "standing at" if ins.standing_at else "facing"
         parts.append(f"{verb} {ins.viewpoint.text!r}")

@@ -32,7 +32,8 @@ class NounPhrase:
     ``right`` / ``middle`` / ``top``; ``ordinal`` is 1 for "first", 2 for "second"...;
     ``place`` is where in the room it stands: ``corner`` (farthest from the scene centre),
     ``centre`` (closest to it) or ``alone`` (farthest from the others of its kind);
-    ``place_negated``: not the one there ("not the one in the corner");
+    ``place_negated``: not the one there ("not the one in the corner"); ``side_negated``:
+    not the one on that side ("not the door to your left");
     ``not_attributes``: attribute words it does not have ("the chair that is not black",
     "the brown door, not the white one").
     """
@@ -45,6 +46,7 @@ class NounPhrase:
     ordinal: int | None = None
     place: str | None = None
     place_negated: bool = False
+    side_negated: bool = False
     constraints: tuple[Constraint, ...] = ()
     coordinated: tuple[NounPhrase, ...] = ()
 
@@ -570,6 +572,13 @@ def _view_trigger(tokens: tuple[str, ...], start: int, end: int) -> tuple[int, i
         t = tokens[i]
         if t not in g.VIEW_TRIGGERS:
             continue
+        if t == "back":
+            if i == start or tokens[i - 1] not in g.OBSERVER_POSSESSIVES:
+                continue  # "its back to the wall": how a thing faces, not where one stands
+            if i - start < 4 and all(
+                w in g.VIEW_OBSERVER or w == "with" for w in tokens[start : i - 1]
+            ):
+                return start, i  # "with your back to the window"
         if i + 1 < end and tokens[i + 1] == "for":
             return None  # "the one you are looking for"
         before = tokens[start:i]
@@ -810,8 +819,9 @@ class _Reader:
                 negated = True
             elif it.mod is not None:
                 mod = it.mod
-                if negated and mod.kind in ("place", "attribute"):
-                    # "not the one in the corner", "the chair that is not black"
+                if negated and mod.kind in ("place", "attribute", "side"):
+                    # "not the one in the corner", "the chair that is not black", "not the
+                    # door to your left"
                     mod = replace(mod, negated=True)
                     negated = False
                 self.mods.append(mod)
@@ -1058,8 +1068,13 @@ def _with_modifiers(np: NounPhrase, mods: list[Modifier]) -> NounPhrase:
         not_attributes=(*np.not_attributes, *(m.value for m in attributes if m.negated)),
         extremes=(*np.extremes, *((m.metric, m.direction) for m in mods if m.kind == "extreme")),
         side=np.side or next((m.value for m in mods if m.kind == "side"), None),
+        side_negated=(
+            np.side_negated if np.side else any(m.negated for m in mods if m.kind == "side")
+        ),
         place=np.place or next((m.value for m in mods if m.kind == "place"), None),
-        place_negated=np.place_negated if np.place else any(m.negated for m in mods),
+        place_negated=(
+            np.place_negated if np.place else any(m.negated for m in mods if m.kind == "place")
+        ),
         ordinal=np.ordinal or next((m.number for m in mods if m.kind == "ordinal"), None),
     )
 
@@ -1078,6 +1093,7 @@ def _merge_modifiers(subject: NounPhrase, target: NounPhrase) -> NounPhrase:
         not_attributes=(*subject.not_attributes, *target.not_attributes),
         extremes=(*subject.extremes, *target.extremes),
         side=subject.side or target.side,
+        side_negated=subject.side_negated if subject.side else target.side_negated,
         place=subject.place or target.place,
         place_negated=subject.place_negated if subject.place else target.place_negated,
         ordinal=subject.ordinal or target.ordinal,

@@ -631,7 +631,9 @@ class Planner:
             else:
                 step = b.add(direction, step, metric=metric)
         if np.side in ("left", "right") and b.size(step) > 1:
-            step = self._side(step, np.side, np.ordinal or 1)
+            there = self._side(step, np.side, np.ordinal or 1)
+            # "not the door to your left": every other one
+            step = b.add(Op.DIFFERENCE, step, there) if np.side_negated else there
         elif np.side == "middle" and b.size(step) > 2:
             # the median of the row along the observer's left-right axis: "the middle one"
             # of five is the third from the left (of four, the second)

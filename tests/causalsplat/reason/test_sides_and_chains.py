@@ -465,3 +465,25 @@ def test_a_negation_ends_with_its_clause() -> None:
     assert answer.entity_ids == (2,), answer.explanation
     answer = REASONER.answer("the couch that is not by the plant", ctx)
     assert answer.entity_ids == (3,), answer.explanation
+
+
+def test_your_back_to_a_thing_stands_there_and_a_negated_side_keeps_the_others() -> None:
+    # a window on the east wall, doors north and south of the room's middle: with your back
+    # to the window you look west, and the northern door (2) is on your right; facing the
+    # window it is on your left. "its back to the window" is how a thing faces: no observer
+    ctx = _room([FLOOR, (1, "window", (3.95, 0.0, 1.4), (0.1, 1.6, 1.2)),
+                 (2, "door", (0.0, 3.9, 1.0), (0.9, 0.1, 2.0)),
+                 (3, "door", (0.0, -3.9, 1.0), (0.9, 0.1, 2.0)),
+                 (4, "chair", (3.0, 0.5, 0.45), BOX)])  # fmt: skip
+    cases = {
+        "If your back is against the window, it is the door on the right.": (2,),
+        "with my back to the window, the door on my left": (3,),
+        "facing the window, the door on the right": (3,),
+        "If your back is against the window, it is not the door to your right.": (3,),
+        "facing the window, not the door on the left": (3,),
+    }
+    for text, expected in cases.items():
+        answer = REASONER.answer(text, ctx)
+        assert answer.entity_ids == expected, (text, answer.explanation)
+    answer = REASONER.answer("the chair with its back to the window", ctx)
+    assert "standing at" not in answer.explanation, answer.explanation
