@@ -743,6 +743,8 @@ def _picked_clause(tokens: tuple[str, ...], items: list[Item]) -> int | None:
         if j >= len(tokens):
             return None
         verb = tokens[j]
+        if _names_another(tokens, it.end, nps):
+            return it.end  # "there is a bookshelf between two doors. it is the door on ..."
         if verb in _SEARCHING and j + 1 < len(tokens) and tokens[j + 1] == "for":
             j += 1
         elif verb not in _PICKING or (verb in ("want", "need") and tokens[j - 1] != "you"):
@@ -754,6 +756,26 @@ def _picked_clause(tokens: tuple[str, ...], items: list[Item]) -> int | None:
             continue
         return it.end
     return None
+
+
+def _names_another(tokens: tuple[str, ...], start: int, nps: list[Item]) -> bool:
+    """Whether the clause at ``start`` says "it is the N" (or "its the N") where N names a
+    kind that the instruction's first phrase does not: the thing meant, the first phrase
+    only leading to it."""
+    j = start
+    if tokens[j : j + 2] == ("it", "is"):
+        j += 2
+    elif tokens[j : j + 1] == ("its",):
+        j += 1
+    else:
+        return False
+    if tokens[j : j + 1] != ("the",):
+        return False
+    named = next((n.np for n in nps if n.start == j + 1), None)
+    first = nps[0].np
+    if named is None or named.is_any or first.is_any:  # type: ignore[attr-defined]
+        return False
+    return not set(named.categories) & set(first.categories)  # type: ignore[attr-defined]
 
 
 def _removed(target: NounPhrase | None) -> tuple[NounPhrase, ...]:

@@ -487,3 +487,20 @@ def test_your_back_to_a_thing_stands_there_and_a_negated_side_keeps_the_others()
         assert answer.entity_ids == expected, (text, answer.explanation)
     answer = REASONER.answer("the chair with its back to the window", ctx)
     assert "standing at" not in answer.explanation, answer.explanation
+
+
+def test_it_is_the_n_of_another_kind_names_the_target() -> None:
+    # "there is a bookshelf between two doors. it is the door on the left": a door; "this
+    # is a door. it is the one on the left" and "... it is the door on the left" too
+    ctx = _room([FLOOR, (1, "wall", (0.0, 3.95, 1.25), (8.0, 0.1, 2.5)),
+                 (2, "bookshelf", (0.0, 3.7, 1.0), (1.0, 0.4, 2.0)),
+                 (3, "door", (-1.5, 3.85, 1.0), (0.9, 0.1, 2.0)),
+                 (4, "door", (1.5, 3.85, 1.0), (0.9, 0.1, 2.0))])  # fmt: skip
+    cases = {
+        "There is a bookshelf between two doors. It is the door on the left.": (3,),
+        "this is a door. it is the one on the right.": (4,),
+        "the bookshelf between the doors. its the bookshelf": (2,),
+    }
+    for text, expected in cases.items():
+        answer = REASONER.answer(text, ctx)
+        assert answer.entity_ids == expected, (text, answer.explanation)
