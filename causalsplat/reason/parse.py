@@ -1072,6 +1072,12 @@ class _Reader:
         if not anchors:
             return k, None
         tail = items[k].cue if k < len(items) else None
+        if tail is not None and k + 1 < len(items) and items[k + 1].np is not None:
+            # "the side with chairs against the wall": where the chairs are, not a second
+            # relation of the side
+            where = Constraint(tail.kind, (items[k + 1].np,))  # type: ignore[arg-type]
+            anchor = replace(anchors[0], constraints=(*anchors[0].constraints, where))
+            return k + 2, Constraint("with", (anchor,))
         if tail is not None and tail.kind in g.WITH_TAIL:
             k += 1
             while k < len(items) and items[k].back_reference:

@@ -504,3 +504,20 @@ def test_it_is_the_n_of_another_kind_names_the_target() -> None:
     for text, expected in cases.items():
         answer = REASONER.answer(text, ctx)
         assert answer.entity_ids == expected, (text, answer.explanation)
+
+
+def test_a_relation_after_what_a_thing_has_places_what_it_has() -> None:
+    # "the side with chairs against the wall, the middle chair": chairs, not the wall;
+    # "the table with chairs beside the cabinet": the table whose chairs stand by it
+    ctx = _room([FLOOR, (1, "wall", (0.0, 3.95, 1.25), (8.0, 0.1, 2.5)),
+                 (2, "chair", (-1.0, 3.5, 0.45), BOX), (3, "chair", (0.0, 3.5, 0.45), BOX),
+                 (4, "chair", (1.0, 3.5, 0.45), BOX),
+                 (5, "table", (0.0, 2.6, 0.4), (3.0, 1.0, 0.8)),
+                 (6, "table", (0.0, -2.0, 0.4), (1.0, 1.0, 0.8)),
+                 (7, "chair", (0.0, -2.8, 0.45), BOX),
+                 (8, "cabinet", (1.8, 3.5, 0.5), (0.6, 0.5, 1.0))])  # fmt: skip
+    answer = REASONER.answer("On the side with 3 chairs against the wall, the middle chair.", ctx)
+    assert answer.explanation.startswith("read as: refer 'chair'"), answer.explanation
+    answer = REASONER.answer("the table with chairs beside the cabinet", ctx)
+    assert answer.entity_ids == (5,), answer.explanation
+    assert "none fits its own relation" not in answer.explanation
