@@ -17,6 +17,7 @@ from causalsplat.colors import SHADES, is_color_word
 from causalsplat.reason import _grammar as g
 from causalsplat.reason._mentions import (
     CategoryIndex,
+    Mention,
     colour_word,
     foreign_at,
     may_modify,
@@ -194,6 +195,36 @@ def _mods_of(np: object) -> list[Modifier]:
     return out
 
 
+def _compound(
+    items: list[Item], tokens: tuple[str, ...], index: CategoryIndex, mention: Mention,
+    mods: list[Modifier], i: int,
+) -> list[Modifier]:  # fmt: skip
+    """Join the noun phrases right before the head ``mention`` at ``i`` into it, across at
+    most two modifier words and no pending modifier: a noun compound ("bathroom sink",
+    "wall portrait picture"), whose last noun is the head; never a word for any entity
+    after a noun ("the door which"). Pops them from ``items``; returns the head's
+    modifiers, theirs first."""
+    start = i
+    pending = bool(mods)
+    while (
+        items
+        and items[-1].np is not None
+        and not mention.generic
+        and (
+            items[-1].end == start
+            or (
+                0 < start - items[-1].end <= 2
+                and all(may_modify(index.lexicon, t) for t in tokens[items[-1].end : start])
+                and not pending
+            )
+        )
+    ):
+        previous = items.pop()
+        mods = [*_mods_of(previous.np), *mods]
+        start = previous.start
+    return mods
+
+
 def read_items(
     tokens: tuple[str, ...], index: CategoryIndex, before: tuple[str, ...] = ()
 ) -> list[Item]:
@@ -299,26 +330,7 @@ def read_items(
             continue
         mention = mention_at(index, tokens, i)
         if mention is not None:
-            mods = [m for _, m in pending]
-            start = i
-            while (
-                items
-                and items[-1].np is not None
-                and not mention.generic
-                and (
-                    items[-1].end == start
-                    or (
-                        0 < start - items[-1].end <= 2
-                        and all(may_modify(index.lexicon, t) for t in tokens[items[-1].end : start])
-                        and not pending
-                    )
-                )
-            ):
-                # a noun compound ("bathroom sink", "wall portrait picture"): the last noun
-                # is the head; never a word for any entity after a noun ("the door which")
-                previous = items.pop()
-                mods = [*_mods_of(previous.np), *mods]
-                start = previous.start
+            mods = _compound(items, tokens, index, mention, [m for _, m in pending], i)
             items.append(Item(i, mention.end, np=_noun_phrase(mention, mods)))
             pending.clear()
             i = mention.end
@@ -345,7 +357,11 @@ def read_items(
             continue
         foreign = foreign_at(index, tokens, i)
         if foreign is not None:
-            items.append(Item(i, foreign.end, np=_noun_phrase(foreign, [m for _, m in pending])))
+            mods = [m for _, m in pending]
+            if foreign.categories:
+                # "the wall mounted bookshelf" where shelves are here: a shelf
+                mods = _compound(items, tokens, index, foreign, mods, i)
+            items.append(Item(i, foreign.end, np=_noun_phrase(foreign, mods)))
             pending.clear()
             i = foreign.end
             continue
