@@ -385,7 +385,8 @@ class Planner:
             # under the bed, farther from the desk"): it selects, never picks one
             nth = np.ordinal if k == ranked and not np.side and (np.ordinal or 0) > 1 else 1
             out = self.relation(step, constraint, singular=singular,
-                                selectors=selectors or k < final, nth=nth)  # fmt: skip
+                                selectors=selectors or k < final, nth=nth,
+                                after=last.anchor)  # fmt: skip
             if out is not None:
                 step, last = out.step, out
         step = self.place(step, np, base)
@@ -417,15 +418,22 @@ class Planner:
     # -- relations -----------------------------------------------------------------------
 
     def relation(
-        self, step: int, c: Constraint, *, singular: bool, selectors: bool, nth: int = 1
-    ) -> Planned | None:
+        self, step: int, c: Constraint, *, singular: bool, selectors: bool, nth: int = 1,
+        after: int | None = None,
+    ) -> Planned | None:  # fmt: skip
         """Apply one relation to the candidates at ``step`` (module docstring); ``nth``:
-        of ``closest`` / ``farthest``, the nth closest / farthest."""
+        of ``closest`` / ``farthest``, the nth closest / farthest; ``after``: the anchor
+        of the relation before it, if any."""
         anchors = [self.anchor(a) for a in c.anchors]
         if any(a is None for a in anchors):
             self.b.note(f"relation {_WORDS.get(c.kind, c.kind)!r} dropped: its anchor is unknown")
             return None
         a = [x for x in anchors if x is not None]
+        if c.kind == "near" and not c.negated and a == [after]:
+            # "at the end of the table and close to the counter", the counter read as the
+            # table: near what it was just related to says nothing more
+            self.b.note(f"'near' {c.anchors[0].text!r}: the anchor before it again; not used")
+            return None
         related = self._related(step, c.kind, a, singular=singular and not c.negated,
                                 selectors=selectors, nth=nth)  # fmt: skip
         if c.negated:
