@@ -33,6 +33,15 @@ _SIDE_CUES = {"side_left": "left", "side_right": "right", "side_middle": "middle
 _PLACE_CUES = {"place_corner": "corner", "place_centre": "centre", "place_alone": "alone"}
 #: Nouns of position that, right before a noun, single out the highest or lowest of its kind.
 _POSITION_ADJECTIVES = {"top": "highest", "bottom": "lowest"}
+#: Surfaces of a room that say, as "floor to ceiling" or "wall to wall", how far a thing
+#: reaches.
+_SURFACES = frozenset({"floor", "ceiling", "wall", "roof"})
+
+
+def _surface_at(tokens: tuple[str, ...], i: int) -> bool:
+    return i < len(tokens) and tokens[i] in _SURFACES
+
+
 #: Words after a shade that make it the thing's lightness ("dark-coloured", "light toned").
 _COLOURED = frozenset({"colored", "coloured", "color", "colour", "toned", "tone", "hued"})
 #: Shade words that name a lightness by themselves ("the dark couch", "it is pale"):
@@ -283,6 +292,9 @@ def read_items(
         other = _than_the_other(tokens, i)
         if other is not None:
             i = other  # "closer to the door than the other one": the door is the anchor
+            continue
+        if t in _SURFACES and tokens[i + 1 : i + 2] == ("to",) and _surface_at(tokens, i + 2):
+            i += 3  # "floor to ceiling curtains", "wall-to-wall carpet": how far they reach
             continue
         if tokens[i : i + 3] == ("side", "by", "side"):
             i += 3  # "the two side-by-side doors": how they stand, no "by" of a relation

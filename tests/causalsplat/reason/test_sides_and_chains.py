@@ -417,6 +417,9 @@ def test_a_compound_s_last_noun_is_its_head_across_modifier_words() -> None:
         "this is a hanging wall portrait picture.": "picture",
         "the wall mounted shelf": "shelf",
         "a black desk arm chair": "black chair",
+        # how far a thing reaches is no thing: "floor to ceiling curtains" are curtains
+        "these are tan, floor to ceiling shelves.": "tan shelf",
+        "wall-to-wall shelf": "shelf",
         # the head a WordNet noun for a kind here (shelves): "bookshelf"
         "the 3 tier wall mounted bookshelf": "bookshelf",
     }
