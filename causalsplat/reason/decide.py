@@ -124,7 +124,7 @@ def _need(b: ProgramBuilder, planner: Planner, grounded: Grounded) -> tuple[int,
                     b.note(f"none of {', '.join(g.chosen)} fits the relation; tried the top 3")
                     out = retry
             if b.size(out.step) == 0:
-                if _definite(grounded.instruction) and out.anchor is not None:
+                if _definite(grounded.instruction) and out.anchor not in (None, step):
                     b.note(f"nothing fits the relation {constraint.kind!r}; took the closest")
                     step = b.add(Op.ARGMIN, step, out.anchor, metric=b.distance_to(out.anchor))
                     related = True

@@ -393,8 +393,9 @@ class Grounder:
         named = {c: v[2] for c, v in acted.items()}
         patient = patient_verb(ins.main_tokens[_context_end(ins) :], self.lexicon)
         patients = {c: v for c, v in named.items() if c not in itself}
+        where = frozenset(c for con in constraints for a in con.anchors for c in a.categories)
         ranked = self._rank("intent", query, patients, need=True, own=own, patient=patient,
-                            verbs=verbs)  # fmt: skip
+                            verbs=verbs, anchors=where)  # fmt: skip
         ranked = self._verb_gate(ranked, verbs)
         if ins.command and not ranked.chosen and named:
             # nothing here does it, and the command names what it acts on: that is the
@@ -530,8 +531,11 @@ class Grounder:
         phrase: bool = False,
         patient: str | None = None,
         verbs: NeedVerbs | None = None,
+        anchors: frozenset[str] = frozenset(),
     ) -> Grounding:
         """Every scene category scored; the chosen are the best (ties kept) when they fit.
+        ``anchors``: categories the need names as the anchors of its relations ("to change
+        the channel on my TV"), never what it asks for.
         ``patient``: the need asks what undergoes this verb ("which thing needs
         watering?"), so only categories people do it to may be chosen. ``verbs``: what the
         need asks an object to do; a category whose stored affordances all do something
@@ -553,10 +557,10 @@ class Grounder:
             cands.append(Candidate(c, m - PATIENT * named, m, named, evidence))
         cands.sort(key=lambda c: (-c.score, c.category))
         reference = self._reference(query) if need and cands else None
-        eligible = cands
+        eligible = [c for c in cands if c.category not in anchors]
         if verbs is not None and verbs.verbs and patient is None:
             otherwise = self._does_otherwise(verbs)
-            eligible = [c for c in cands if c.category not in otherwise]
+            eligible = [c for c in eligible if c.category not in otherwise]
         if patient is not None:
             knowledge = self._knowledge()
             eligible = [c for c in eligible
@@ -564,7 +568,7 @@ class Grounder:
                                         self.lexicon)]  # fmt: skip
         if verbs is not None and verbs.verbs and eligible:
             eligible = self._doers_first(eligible, verbs)
-        if patient is not None or (verbs is not None and verbs.verbs):
+        if patient is not None or anchors or (verbs is not None and verbs.verbs):
             kept = {id(c) for c in eligible}
             cands = [*eligible, *(c for c in cands if id(c) not in kept)]
         stands_for = False
