@@ -113,14 +113,17 @@ def _shade_at(tokens: tuple[str, ...], i: int) -> tuple[str, int] | None:
     return None
 
 
-#: Verbs saying which way a thing faces ("a chair facing left", "it faces the right").
+#: Verbs saying which way a thing faces ("a chair facing left", "it faces the right"), or
+#: which way one goes ("turn left and the radiator is ...").
 _FACING = frozenset({"facing", "faces", "faced", "face", "turned", "pointing", "points",
-                     "oriented", "angled"})  # fmt: skip
+                     "oriented", "angled", "turn", "turns", "turning", "go", "walk",
+                     "head", "veer"})  # fmt: skip
 
 
 def _orientation_end(tokens: tuple[str, ...], i: int) -> int | None:
     """Where "facing (up / down and) (to / towards) (the) left / right (side)" ends when it
-    starts at ``i``: the way a thing faces, which no stored relation or attribute holds."""
+    starts at ``i``: the way a thing faces (or one goes), which no stored relation or
+    attribute holds."""
     if tokens[i] not in _FACING:
         return None
     j = i + 1

@@ -939,6 +939,17 @@ class _Reader:
             # "this is a blue chair. it is the third chair from the right": the target
             # named again, with what singles it out
             self.target = _merge_modifiers(self.target, _without_repeats(np, self.target))
+        elif (
+            _modified(np)
+            and self.target.is_any
+            and self.subject is not None
+            and np.categories
+            and set(np.categories) == set(self.subject.categories)
+            and not (k > 0 and self.items[k - 1].conjunction)
+        ):
+            # "one of many swivel chairs sits before a desk. it is the third chair from the
+            # left": the chairs the "one" is of, named again
+            self.subject = _merge_modifiers(self.subject, _without_repeats(np, self.subject))
         elif k > 0 and self.items[k - 1].conjunction and not self.constraints:
             self.target = replace(self.target, coordinated=(*self.target.coordinated, np))
         else:

@@ -526,3 +526,16 @@ def test_a_relation_after_what_a_thing_has_places_what_it_has() -> None:
     answer = REASONER.answer("the table with chairs beside the cabinet", ctx)
     assert answer.entity_ids == (5,), answer.explanation
     assert "none fits its own relation" not in answer.explanation
+
+
+def test_the_kind_a_one_is_of_named_again_takes_its_ordinal() -> None:
+    # "one of many chairs ... it is the third chair from the left": the third, not the first;
+    # "turn left" is which way one goes, not the side the chair is on
+    ctx = _room([FLOOR, (1, "wall", (0.0, 3.95, 1.25), (8.0, 0.1, 2.5)),
+                 *((k + 2, "chair", (-2.0 + k, 3.0, 0.45), BOX) for k in range(5))])  # fmt: skip
+    text = "one of many chairs sits before the wall. it is the third chair from the left."
+    answer = REASONER.answer(text, ctx)
+    assert answer.entity_ids == (4,), answer.explanation
+    answer = REASONER.answer("turn left and it is the chair on the right", ctx)
+    assert answer.entity_ids == (6,), answer.explanation
+    assert "side left" not in answer.explanation
