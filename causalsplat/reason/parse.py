@@ -1059,9 +1059,18 @@ class _Reader:
             if denied and constraint is not None:
                 constraint = replace(constraint, negated=True)
             return k, constraint
+        if anchors and self._is_target_again(anchors[0]):
+            beside = self._neighbour(k)
+            if beside is not None:
+                # "the desk is against the wall. in front of the desk is a chair": a chair
+                # in front of the desk, which is behind it
+                return k + 1, Constraint(_inverse(cue.kind), (beside,))
         if not anchors and k < len(items) and items[k].back_reference:
             while k < len(items) and items[k].back_reference:
                 k += 1
+            beside = self._neighbour(k)
+            if beside is not None and self.target is not None and cue.kind != "between":
+                return k + 1, Constraint(_inverse(cue.kind), (beside,))  # "in front of it is"
             if self.viewpoint is not None:
                 anchors = [self.viewpoint]
             elif self.free is not None:
@@ -1077,6 +1086,33 @@ class _Reader:
                     return k, Constraint("between", (anchors[0],))
                 return k, Constraint("closest", (anchors[0],))
         return k, Constraint(cue.kind, tuple(anchors))
+
+    def _is_target_again(self, np: NounPhrase) -> bool:
+        """Whether ``np`` names the target again, as it was said ("the desk" after "the
+        wooden desk"): its kind, nothing that singles one out."""
+        target = self.target
+        return (
+            target is not None
+            and not target.is_any
+            and not np.is_any
+            and bool(np.categories)
+            and set(np.categories) == set(target.categories)
+            and not _modified(np)
+            and not np.constraints
+        )
+
+    def _neighbour(self, k: int) -> NounPhrase | None:
+        """The phrase at item ``k`` when only a copula leads to it ("... is a chair",
+        "... there are two chairs", "... sits a lamp"): a thing described beside the target,
+        not the target."""
+        items = self.items
+        if k >= len(items) or items[k].np is None or k == 0:
+            return None
+        words = self.tokens[items[k - 1].end : items[k].start]
+        if not words or words[0] not in _COPULAS or any(w in _CLAUSE_WORDS for w in words):
+            return None
+        np = items[k].np
+        return None if np.is_any else np  # type: ignore[union-attr,return-value]
 
     def _with(self, k: int, anchors: list[NounPhrase]) -> tuple[int, Constraint | None]:
         items = self.items
@@ -1184,6 +1220,13 @@ def _demonstrated(
     described = replace(target, constraints=())
     turned = Constraint(_inverse(c.kind), (described,), negated=c.negated, span=c.span)
     return replace(anchor, constraints=(*anchor.constraints, turned))
+
+
+#: Verbs that set a described thing beside the target ("next to it *is* a lamp").
+_COPULAS = frozenset({"is", "are", "there", "sits", "sit", "stands", "stand", "lies", "hangs"})
+#: Words that end a clause or open another one.
+_CLAUSE_WORDS = frozenset({",", ".", "?", "and", "but", "which", "that", "where", "when", "it",
+                           "not", "no"})  # fmt: skip
 
 
 def _inverse(kind: str) -> str:

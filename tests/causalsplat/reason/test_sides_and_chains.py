@@ -539,3 +539,20 @@ def test_the_kind_a_one_is_of_named_again_takes_its_ordinal() -> None:
     answer = REASONER.answer("turn left and it is the chair on the right", ctx)
     assert answer.entity_ids == (6,), answer.explanation
     assert "side left" not in answer.explanation
+
+
+def test_a_thing_said_to_be_beside_the_target_is_its_anchor() -> None:
+    # "... in front of the desk is a chair": the desk the chair stands in front of (seen
+    # from the room's middle, the desk is behind the chair), never the desk in front of
+    # itself; "in front of it is a chair" the same
+    ctx = _room([FLOOR, (1, "desk", (0.0, 3.5, 0.4), (1.2, 0.6, 0.8)),
+                 (2, "chair", (0.0, 2.7, 0.45), BOX),
+                 (3, "desk", (3.5, 0.0, 0.4), (0.6, 1.2, 0.8)),
+                 (4, "lamp", (-3.0, -3.0, 0.8), (0.3, 0.3, 1.6))])  # fmt: skip
+    for text in (
+        "this is a desk. directly in front of the desk is a chair.",
+        "the desk is by the wall. in front of it there is a chair.",
+    ):
+        answer = REASONER.answer(text, ctx)
+        assert answer.entity_ids == (1,), (text, answer.explanation)
+        assert "behind 'chair'" in answer.explanation, answer.explanation
