@@ -74,12 +74,14 @@ class NounPhrase:
 class Constraint:
     """The target is ``kind`` (a relation kind of :mod:`._grammar`) of ``anchors``
     (two for ``between``); ``negated`` for "not ..."; ``span``: its tokens ``[start,
-    end)``, the cue to the last anchor (in the tokens after the viewpoint clause)."""
+    end)``, the cue to the last anchor (in the tokens after the viewpoint clause); ``far``:
+    the cue says how far ("to the far left of", "all the way to the right of")."""
 
     kind: str
     anchors: tuple[NounPhrase, ...]
     negated: bool = False
     span: tuple[int, int] = (0, 0)
+    far: bool = False
 
 
 @dataclass(frozen=True, slots=True)
@@ -1085,7 +1087,9 @@ class _Reader:
                 if mention is not None and mention.plural:
                     return k, Constraint("between", (anchors[0],))
                 return k, Constraint("closest", (anchors[0],))
-        return k, Constraint(cue.kind, tuple(anchors))
+        words = self.tokens[cue.start : cue.end]
+        far = "far" in words or self.tokens[max(0, cue.start - 3) : cue.start] == _ALL_THE_WAY
+        return k, Constraint(cue.kind, tuple(anchors), far=far)
 
     def _is_target_again(self, np: NounPhrase) -> bool:
         """Whether ``np`` names the target again, as it was said ("the desk" after "the
@@ -1222,6 +1226,7 @@ def _demonstrated(
     return replace(anchor, constraints=(*anchor.constraints, turned))
 
 
+_ALL_THE_WAY = ("all", "the", "way")
 #: Verbs that set a described thing beside the target ("next to it *is* a lamp").
 _COPULAS = frozenset({"is", "are", "there", "sits", "sit", "stands", "stand", "lies", "hangs"})
 #: Words that end a clause or open another one.

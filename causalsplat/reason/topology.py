@@ -454,6 +454,18 @@ class Planner:
                         " themselves; the relation was not used")  # fmt: skip
             return Planned(step, None)
         measure = Metric.HORIZONTAL_DISTANCE if c.kind in VERTICAL else _FOOTPRINT.get(c.kind)
+        if (
+            singular and not selectors and c.kind in ("left_of", "right_of")
+            and c.far and self.b.size(related) > 1
+        ):  # fmt: skip
+            # "to the far right of the table": of those right of it, the rightmost
+            where = self._mean_centroid(self.b.value(anchor))
+            eye = self._observer() or list(self.ctx.centre)
+            view = self._viewpoint(c.kind) or {"eye": eye, "target": where}
+            op = Op.ARGMAX if c.kind == "right_of" else Op.ARGMIN
+            if where is not None and math.dist(eye[:2], where[:2]) >= MIN_VIEW_DISTANCE:
+                self.b.note(f"far {_WORDS[c.kind]} it: the {c.kind[:-3]}most of them")
+                related = self.b.add(op, related, metric=Metric.RIGHTWARD, viewpoint=view)
         return Planned(related, anchor, between=c.kind == "between", measure=measure)
 
     def _related(

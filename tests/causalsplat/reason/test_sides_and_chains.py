@@ -556,3 +556,16 @@ def test_a_thing_said_to_be_beside_the_target_is_its_anchor() -> None:
         answer = REASONER.answer(text, ctx)
         assert answer.entity_ids == (1,), (text, answer.explanation)
         assert "behind 'chair'" in answer.explanation, answer.explanation
+
+
+def test_far_right_of_an_anchor_is_the_rightmost_of_those_right_of_it() -> None:
+    # chairs along the south side of a table, seen from the room's middle (north of it):
+    # "right of the table" holds 3 and 4; "to the right" takes the one closest to the
+    # table, "to the far right" the rightmost
+    ctx = _room([FLOOR, (1, "table", (0.0, -2.0, 0.4), (1.0, 1.0, 0.8)),
+                 (2, "chair", (1.0, -2.0, 0.45), BOX), (3, "chair", (-1.0, -2.0, 0.45), BOX),
+                 (4, "chair", (-2.2, -2.0, 0.45), BOX)])  # fmt: skip
+    near = REASONER.answer("the chair to the right of the table", ctx)
+    far = REASONER.answer("the chair to the far right of the table", ctx)
+    way = REASONER.answer("the chair all the way to the right of the table", ctx)
+    assert (near.entity_ids, far.entity_ids, way.entity_ids) == ((3,), (4,), (4,))
