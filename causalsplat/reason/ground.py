@@ -239,12 +239,14 @@ class Grounded:
     removed: tuple[Grounding, ...] = field(default=())
     anchors: tuple[tuple[NounPhrase, Grounding], ...] = field(default=())
 
-    def anchor_categories(self, np: NounPhrase) -> tuple[str, ...] | None:
-        """The categories an anchor phrase that names none was grounded to by meaning
-        ("the oven" in a kitchen with a stove), or ``None``."""
+    def anchor_categories(self, np: NounPhrase) -> tuple[tuple[str, ...], str] | None:
+        """The categories an anchor phrase that names none was grounded to ("the oven" in
+        a kitchen with a stove, by meaning; "the window" where only its curtains are, by
+        what they are), and how; or ``None``."""
         for phrase, g in self.anchors:
             if phrase == np and g.chosen:
-                return g.chosen
+                how = "meaning" if g.method != "knowledge" else f"{g.candidates[0].evidence!r}"
+                return g.chosen, how
         return None
 
 
@@ -322,9 +324,36 @@ class Grounder:
                     if m is None or m.generic or a.categories or m.phrase in ROOMS:
                         continue
                     g = self._rank("described", m.phrase, {}, fits=ANCHOR_FITS, phrase=True)
+                    if not g.chosen:
+                        g = self._at_it(m.phrase) or g
                     if g.chosen and not set(g.chosen) & set(chosen):
                         out.append((a, g))
         return tuple(out)
+
+    def _at_it(self, phrase: str) -> Grounding | None:
+        """What stands where an absent kind would be: the scene categories the knowledge
+        table says hang over, cover or frame it ("the window" where only its curtains or
+        blinds are: "a fabric panel hung over a window", "slatted window coverings")."""
+        knowledge = self._knowledge()
+        facts = knowledge.get(phrase)
+        names = {phrase, *(() if facts is None else (facts.name, *facts.also))}
+        held = {" ".join(c.lower().split()) for c in self.ctx.categories}
+        if names & held:
+            return None
+        alternatives = "|".join(map(re.escape, sorted(names)))
+        pattern = re.compile(
+            rf"\b(?:(?:over|around|covering|across) (?:a|an|the) (?:{alternatives})\b"
+            rf"|(?:{alternatives}) cover)"
+        )
+        found = []
+        for c in self.ctx.categories:
+            entry = facts_for(c, knowledge, self.lexicon)
+            if entry is not None and pattern.search(entry.is_a):
+                found.append(Candidate(c, 1.0, 1.0, 0.0, f"{c}: {entry.is_a}"))
+        if not found:
+            return None
+        chosen = tuple(sorted({c.category for c in found}))
+        return Grounding("described", phrase, tuple(found[:TOP_K]), chosen, "knowledge")
 
     def _removed(self, np: NounPhrase) -> Grounding:
         """What a counterfactual removes. A kind of object the knowledge table knows that

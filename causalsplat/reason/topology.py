@@ -133,7 +133,9 @@ class Planner:
         self,
         builder: ProgramBuilder,
         instruction: Instruction,
-        anchor_categories: Callable[[NounPhrase], tuple[str, ...] | None] | None = None,
+        anchor_categories: (
+            Callable[[NounPhrase], tuple[tuple[str, ...], str] | None] | None
+        ) = None,
     ) -> None:
         self.b = builder
         self.ctx = builder.ctx
@@ -157,8 +159,8 @@ class Planner:
         if categories is None and not np.categories and role == "anchor":
             grounded = self._anchor_categories(np) if self._anchor_categories else None
             if grounded:
-                b.note(f"anchor {np.text!r} read as {', '.join(grounded)} (by meaning)")
-                categories = grounded
+                categories, how = grounded
+                b.note(f"anchor {np.text!r} read as {', '.join(categories)} (by {how})")
         categories = np.categories if categories is None else categories
         if np.is_any and not categories:
             step = self._non_structural()

@@ -569,3 +569,16 @@ def test_far_right_of_an_anchor_is_the_rightmost_of_those_right_of_it() -> None:
     far = REASONER.answer("the chair to the far right of the table", ctx)
     way = REASONER.answer("the chair all the way to the right of the table", ctx)
     assert (near.entity_ids, far.entity_ids, way.entity_ids) == ((3,), (4,), (4,))
+
+
+def test_an_absent_window_is_where_its_curtains_hang() -> None:
+    # no window in the objects, curtains over one: "closest to the window" measures to the
+    # curtains, as the knowledge table says what curtains are (hung over a window)
+    ctx = _room([FLOOR, (1, "curtain", (3.9, 2.0, 1.5), (0.1, 1.5, 2.0)),
+                 (2, "nightstand", (3.4, 2.0, 0.3), (0.5, 0.5, 0.6)),
+                 (3, "nightstand", (-3.0, -2.0, 0.35), (0.6, 0.6, 0.7))])  # fmt: skip
+    answer = REASONER.answer("The nightstand closest to the window.", ctx)
+    assert answer.entity_ids == (2,), answer.explanation
+    assert "anchor 'window' read as curtain (by 'curtain: a fabric panel hung over a window')" in (
+        answer.explanation
+    )
