@@ -1030,7 +1030,7 @@ class _Reader:
                 target = _merge_modifiers(self.subject, target)
         target = _with_modifiers(target, self.mods)
         kept = tuple(c for c in constraints if c.anchors)
-        return replace(target, constraints=(*target.constraints, *kept))
+        return _level_to_target(replace(target, constraints=(*target.constraints, *kept)))
 
     def _constraint(self, k: int) -> tuple[int, Constraint | None]:
         """Read the cue at ``k`` and its anchors; returns the next index and the constraint
@@ -1135,6 +1135,34 @@ class _Reader:
                 k += 1
             return k, Constraint(g.WITH_TAIL[tail.kind], (anchors[0],))
         return k, Constraint("with", (anchors[0],))
+
+
+#: Nouns for one level of a piece of furniture ("the top shelf of the bookcase").
+_LEVELS = frozenset({"shelf", "shelves", "level", "levels", "tier", "tiers", "row", "rows",
+                     "layer", "layers", "rack"})  # fmt: skip
+
+
+def _level_to_target(target: NounPhrase) -> NounPhrase:
+    """ "the books on the highest shelf", "the box on the bottom shelf": the height word
+    picks among the things on the shelves (the highest books), not among the bookcases,
+    and they are at the bookcase (on one of its levels), not on top of it."""
+    if target.extremes or target.is_any:
+        return target
+    constraints = list(target.constraints)
+    for k, c in enumerate(constraints):
+        if c.kind not in ("supported_by", "inside") or c.negated or len(c.anchors) != 1:
+            continue
+        anchor = c.anchors[0]
+        head = anchor.mention.phrase.split()[-1] if anchor.mention is not None else ""
+        vertical = [e for e in anchor.extremes if e[0] is Metric.Z]
+        if head not in _LEVELS or not vertical:
+            continue
+        rest = tuple(e for e in anchor.extremes if e[0] is not Metric.Z)
+        # on one of its levels is at the piece of furniture (measured boxes of what is on
+        # its shelves stick out of its own), not on top of it
+        constraints[k] = replace(c, kind="near", anchors=(replace(anchor, extremes=rest),))
+        return replace(target, extremes=(vertical[0],), constraints=tuple(constraints))
+    return target
 
 
 def _with_modifiers(np: NounPhrase, mods: list[Modifier]) -> NounPhrase:

@@ -582,3 +582,19 @@ def test_an_absent_window_is_where_its_curtains_hang() -> None:
     assert "anchor 'window' read as curtain (by 'curtain: a fabric panel hung over a window')" in (
         answer.explanation
     )
+
+
+def test_the_height_of_a_shelf_picks_among_what_is_on_it() -> None:
+    # one bookcase, books on three of its shelves: "the books on the highest shelf" are the
+    # highest books, not the books on the highest bookcase
+    ctx = _room([FLOOR, (1, "bookshelf", (0.0, 3.7, 1.0), (1.2, 0.4, 2.0)),
+                 (2, "books", (0.0, 3.7, 0.35), (1.0, 0.3, 0.25)),
+                 (3, "books", (0.0, 3.7, 1.05), (1.0, 0.3, 0.25)),
+                 (4, "books", (0.0, 3.7, 1.75), (1.0, 0.3, 0.25))])  # fmt: skip
+    cases = {
+        "The books that are on the highest shelf": (4,),
+        "the books on the bottom shelf of the bookcase": (2,),
+    }
+    for text, expected in cases.items():
+        answer = REASONER.answer(text, ctx)
+        assert answer.entity_ids == expected, (text, answer.explanation)
