@@ -841,6 +841,13 @@ class _Reader:
             it = items[k]
             if it.negation:
                 negated = True
+            elif it.mod is not None and self._neighbour_side(k) is not None:
+                # "... there is a chair to the left": the target is right of that chair
+                np = self._neighbour_side(k)
+                kind = "right_of" if it.mod.value == "left" else "left_of"
+                m = np.mention  # type: ignore[union-attr]
+                span = (m.start if m is not None else it.start, it.end)
+                self.constraints.append(Constraint(kind, (np,), span=span))  # type: ignore[arg-type]
             elif it.mod is not None:
                 mod = it.mod
                 if negated and mod.kind in ("place", "attribute", "side"):
@@ -1091,6 +1098,25 @@ class _Reader:
         far = "far" in words or self.tokens[max(0, cue.start - 3) : cue.start] == _ALL_THE_WAY
         return k, Constraint(cue.kind, tuple(anchors), far=far)
 
+    def _neighbour_side(self, k: int) -> NounPhrase | None:
+        """The phrase a side modifier at item ``k`` places beside the target ("... there is
+        a chair to the left"): right before it, said after the target by "there is / are"
+        with only determiners or a count between; else ``None``."""
+        items, mod = self.items, self.items[k].mod
+        if mod is None or mod.kind != "side" or mod.value not in ("left", "right") or k == 0:
+            return None
+        before = items[k - 1]
+        np = before.np
+        if np is None or self.target is None or np is self.target or np.is_any:  # type: ignore[attr-defined]
+            return None
+        j = before.start - 1
+        while j >= 0 and (self.tokens[j] in g.DETERMINERS or self.tokens[j].isdigit()
+                          or self.tokens[j] in _COUNTS):  # fmt: skip
+            j -= 1
+        if j < 1 or self.tokens[j] not in ("is", "are", "s") or self.tokens[j - 1] != "there":
+            return None
+        return np  # type: ignore[return-value]
+
     def _is_target_again(self, np: NounPhrase) -> bool:
         """Whether ``np`` names the target again, as it was said ("the desk" after "the
         wooden desk"): its kind, nothing that singles one out."""
@@ -1255,6 +1281,7 @@ def _demonstrated(
 
 
 _ALL_THE_WAY = ("all", "the", "way")
+_COUNTS = frozenset({"one", "two", "three", "four", "five", "six", "several", "many"})
 #: Verbs that set a described thing beside the target ("next to it *is* a lamp").
 _COPULAS = frozenset({"is", "are", "there", "sits", "sit", "stands", "stand", "lies", "hangs"})
 #: Words that end a clause or open another one.

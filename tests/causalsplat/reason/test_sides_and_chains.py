@@ -598,3 +598,15 @@ def test_the_height_of_a_shelf_picks_among_what_is_on_it() -> None:
     for text, expected in cases.items():
         answer = REASONER.answer(text, ctx)
         assert answer.entity_ids == expected, (text, answer.explanation)
+
+
+def test_there_is_one_to_the_left_places_a_neighbour_not_the_target() -> None:
+    # chairs in a row north of the room's middle, seen from it: "there is a chair to the
+    # left" says the target has one on its left, not that it is the leftmost
+    ctx = _room([FLOOR, (1, "table", (0.0, 3.0, 0.4), (3.0, 0.8, 0.8)),
+                 (2, "chair", (-1.0, 2.3, 0.45), BOX), (3, "chair", (0.0, 2.3, 0.45), BOX),
+                 (4, "chair", (1.0, 2.3, 0.45), BOX)])  # fmt: skip
+    text = "the chair is at the table. there is a chair to the left, and one to the right of it."
+    answer = REASONER.answer(text, ctx)
+    assert answer.entity_ids == (3,), answer.explanation
+    assert "side left" not in answer.explanation.splitlines()[0]
