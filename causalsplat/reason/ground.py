@@ -50,6 +50,7 @@ When the best score is below :data:`FITS`, nothing is taken: the answer is an ex
 from __future__ import annotations
 
 import re
+from collections import Counter
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
 
@@ -422,7 +423,12 @@ class Grounder:
         named = {c: v[2] for c, v in acted.items()}
         patient = patient_verb(ins.main_tokens[_context_end(ins) :], self.lexicon)
         patients = {c: v for c, v in named.items() if c not in itself}
-        where = frozenset(c for con in constraints for a in con.anchors for c in a.categories)
+        # what the need is related to ("on my TV"), where the scene holds only that one of
+        # its kind, is never what it asks for: the answer would be related to itself
+        held = Counter(e.category for e in self.ctx.by_id.values())
+        where = frozenset(
+            c for con in constraints for a in con.anchors for c in a.categories if held[c] == 1
+        )
         ranked = self._rank("intent", query, patients, need=True, own=own, patient=patient,
                             verbs=verbs, anchors=where)  # fmt: skip
         ranked = self._verb_gate(ranked, verbs)
@@ -563,8 +569,8 @@ class Grounder:
         anchors: frozenset[str] = frozenset(),
     ) -> Grounding:
         """Every scene category scored; the chosen are the best (ties kept) when they fit.
-        ``anchors``: categories the need names as the anchors of its relations ("to change
-        the channel on my TV"), never what it asks for.
+        ``anchors``: categories of which the need's relations name the only entity ("to
+        change the channel on my TV"), never what it asks for.
         ``patient``: the need asks what undergoes this verb ("which thing needs
         watering?"), so only categories people do it to may be chosen. ``verbs``: what the
         need asks an object to do; a category whose stored affordances all do something

@@ -346,3 +346,11 @@ def test_what_a_need_relates_to_is_never_what_it_asks_for(
     room = _room("tv", "remote", "couch", "sink", "towel", "speaker")
     got = reasoner.answer(text, room)
     assert got.categories and not {"tv", "sink"} & set(got.categories), got.explanation
+
+
+def test_another_of_the_kind_a_need_relates_to_may_answer_it(reasoner: OfflineReasoner) -> None:
+    # with two stools, "near the stool" leaves the other one to sit on; only the one TV
+    # of a room is never the thing to change its channel with
+    room = _room("stool", "stool", "table", "lamp", "plant")
+    got = reasoner.answer("something to sit on near the stool", room)
+    assert "stool" in got.categories, got.explanation
