@@ -101,6 +101,9 @@ POSSESSIVES = frozenset({"my", "your", "our", "his", "her", "their", "its"})
 #: "my phone").
 DEFINITE = POSSESSIVES | {"the", "this", "that", "these", "those"}
 DETERMINERS = DEFINITE | {"a", "an", "some", "any", "another", "other", "each", "every"}
+#: Nouns for one level of a piece of furniture ("the top shelf of the bookcase").
+LEVELS = frozenset({"shelf", "shelves", "level", "levels", "tier", "tiers", "row", "rows",
+                    "layer", "layers", "rack"})  # fmt: skip
 #: Nouns that name places or parts, never a target or anchor of their own.
 SPATIAL_NOUNS = frozenset({
     "top", "bottom", "side", "left", "right", "front", "back", "middle", "center", "centre",

@@ -332,8 +332,13 @@ def read_items(
         if t in g.DETERMINERS and (t not in ("that", "this", "its", "their") or introduces):
             i += 1
             continue
-        if t in _POSITION_ADJECTIVES and i + 1 < len(tokens) and mention_at(index, tokens, i + 1):
+        if (
+            t in _POSITION_ADJECTIVES
+            and i + 1 < len(tokens)
+            and (mention_at(index, tokens, i + 1) or tokens[i + 1] in g.LEVELS)
+        ):
             # "the bottom shelf", "the top picture": a position word used as an adjective
+            # (before a level even where the scene has no shelves: "on the top shelf")
             metric, direction = g.EXTREMES[_POSITION_ADJECTIVES[t]]
             pending.append((i, Modifier("extreme", t, direction=direction, metric=metric)))
             i += 1

@@ -1163,11 +1163,6 @@ class _Reader:
         return k, Constraint("with", (anchors[0],))
 
 
-#: Nouns for one level of a piece of furniture ("the top shelf of the bookcase").
-_LEVELS = frozenset({"shelf", "shelves", "level", "levels", "tier", "tiers", "row", "rows",
-                     "layer", "layers", "rack"})  # fmt: skip
-
-
 def _level_to_target(target: NounPhrase) -> NounPhrase:
     """ "the books on the highest shelf", "the box on the bottom shelf": the height word
     picks among the things on the shelves (the highest books), not among the bookcases,
@@ -1181,7 +1176,7 @@ def _level_to_target(target: NounPhrase) -> NounPhrase:
         anchor = c.anchors[0]
         head = anchor.mention.phrase.split()[-1] if anchor.mention is not None else ""
         vertical = [e for e in anchor.extremes if e[0] is Metric.Z]
-        if head not in _LEVELS or not vertical:
+        if head not in g.LEVELS or not vertical:
             continue
         rest = tuple(e for e in anchor.extremes if e[0] is not Metric.Z)
         # on one of its levels is at the piece of furniture (measured boxes of what is on

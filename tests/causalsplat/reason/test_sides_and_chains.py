@@ -598,6 +598,11 @@ def test_the_height_of_a_shelf_picks_among_what_is_on_it() -> None:
     for text, expected in cases.items():
         answer = REASONER.answer(text, ctx)
         assert answer.entity_ids == expected, (text, answer.explanation)
+    # where the scene stores no bookcase, the height still picks among the books
+    books = _room([FLOOR, *((k, "books", (0.0, 3.7, z), (1.0, 0.3, 0.25))
+                            for k, z in ((2, 0.35), (3, 1.05), (4, 1.75)))])  # fmt: skip
+    answer = REASONER.answer("the books on the top shelf", books)
+    assert answer.entity_ids == (4,), answer.explanation
 
 
 def test_there_is_one_to_the_left_places_a_neighbour_not_the_target() -> None:
