@@ -36,12 +36,6 @@ _POSITION_ADJECTIVES = {"top": "highest", "bottom": "lowest"}
 #: Surfaces of a room that say, as "floor to ceiling" or "wall to wall", how far a thing
 #: reaches.
 _SURFACES = frozenset({"floor", "ceiling", "wall", "roof"})
-
-
-def _surface_at(tokens: tuple[str, ...], i: int) -> bool:
-    return i < len(tokens) and tokens[i] in _SURFACES
-
-
 #: Words after a shade that make it the thing's lightness ("dark-coloured", "light toned").
 _COLOURED = frozenset({"colored", "coloured", "color", "colour", "toned", "tone", "hued"})
 #: Shade words that name a lightness by themselves ("the dark couch", "it is pale"):
@@ -296,7 +290,12 @@ def read_items(
         if other is not None:
             i = other  # "closer to the door than the other one": the door is the anchor
             continue
-        if t in _SURFACES and tokens[i + 1 : i + 2] == ("to",) and _surface_at(tokens, i + 2):
+        if (
+            t in _SURFACES
+            and i + 2 < len(tokens)
+            and tokens[i + 1] == "to"
+            and tokens[i + 2] in _SURFACES
+        ):
             i += 3  # "floor to ceiling curtains", "wall-to-wall carpet": how far they reach
             continue
         if tokens[i : i + 3] == ("side", "by", "side"):
@@ -308,9 +307,19 @@ def read_items(
             items.append(Item(i, i + 4, cue=g.Cue("near", i, i + 4)))
             i += 4
             continue
-        if t in _POSITION_ADJECTIVES and tokens[i + 1 : i + 2] in (("left",), ("right",)):
-            # "the top left", "on the bottom right": the highest or lowest of them, and of
-            # those the leftmost or rightmost (a position along two axes)
+        if (
+            t in _POSITION_ADJECTIVES
+            and i + 1 < len(tokens)
+            and (
+                tokens[i + 1] in ("left", "right")
+                or tokens[i + 1] in g.LEVELS
+                or mention_at(index, tokens, i + 1)
+            )
+        ):
+            # a position word used as an adjective: "the bottom shelf", "the top picture",
+            # before a level even where the scene has no shelves ("on the top shelf"); "the
+            # top left", "on the bottom right": the highest or lowest of them, and of those
+            # the leftmost or rightmost (a position along two axes)
             metric, direction = g.EXTREMES[_POSITION_ADJECTIVES[t]]
             pending.append((i, Modifier("extreme", t, direction=direction, metric=metric)))
             i += 1
@@ -330,17 +339,6 @@ def read_items(
         # noun was said before ("facing the couch, the lamp right of this couch")
         introduces = t == "this" and _introduces(index, tokens, i + 1, (*before, *tokens[:i]))
         if t in g.DETERMINERS and (t not in ("that", "this", "its", "their") or introduces):
-            i += 1
-            continue
-        if (
-            t in _POSITION_ADJECTIVES
-            and i + 1 < len(tokens)
-            and (mention_at(index, tokens, i + 1) or tokens[i + 1] in g.LEVELS)
-        ):
-            # "the bottom shelf", "the top picture": a position word used as an adjective
-            # (before a level even where the scene has no shelves: "on the top shelf")
-            metric, direction = g.EXTREMES[_POSITION_ADJECTIVES[t]]
-            pending.append((i, Modifier("extreme", t, direction=direction, metric=metric)))
             i += 1
             continue
         shade = _shade_at(tokens, i)

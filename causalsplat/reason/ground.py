@@ -425,10 +425,12 @@ class Grounder:
         patients = {c: v for c, v in named.items() if c not in itself}
         # what the need is related to ("on my TV"), where the scene holds only that one of
         # its kind, is never what it asks for: the answer would be related to itself
-        held = Counter(e.category for e in self.ctx.by_id.values())
-        where = frozenset(
-            c for con in constraints for a in con.anchors for c in a.categories if held[c] == 1
-        )
+        where: frozenset[str] = frozenset()
+        if constraints:
+            held = Counter(e.category for e in self.ctx.by_id.values())
+            where = frozenset(
+                c for con in constraints for a in con.anchors for c in a.categories if held[c] == 1
+            )
         ranked = self._rank("intent", query, patients, need=True, own=own, patient=patient,
                             verbs=verbs, anchors=where)  # fmt: skip
         ranked = self._verb_gate(ranked, verbs)

@@ -17,7 +17,7 @@ from causalsplat.reason import _grammar as g
 from causalsplat.reason._conditions import asks_what_follows, moves_away, split_condition
 from causalsplat.reason._items import Item, Modifier, read_items
 from causalsplat.reason._mentions import CategoryIndex, Mention
-from causalsplat.reason._text import tokenize
+from causalsplat.reason._text import NUMBER_WORDS, tokenize
 from causalsplat.reason.lexicon import Lexicon
 from queries import Metric, Op
 
@@ -841,13 +841,12 @@ class _Reader:
             it = items[k]
             if it.negation:
                 negated = True
-            elif it.mod is not None and self._neighbour_side(k) is not None:
+            elif it.mod is not None and (np := self._neighbour_side(k)) is not None:
                 # "... there is a chair to the left": the target is right of that chair
-                np = self._neighbour_side(k)
                 kind = "right_of" if it.mod.value == "left" else "left_of"
-                m = np.mention  # type: ignore[union-attr]
+                m = np.mention
                 span = (m.start if m is not None else it.start, it.end)
-                self.constraints.append(Constraint(kind, (np,), span=span))  # type: ignore[arg-type]
+                self.constraints.append(Constraint(kind, (np,), span=span))
             elif it.mod is not None:
                 mod = it.mod
                 if negated and mod.kind in ("place", "attribute", "side"):
@@ -1276,7 +1275,8 @@ def _demonstrated(
 
 
 _ALL_THE_WAY = ("all", "the", "way")
-_COUNTS = frozenset({"one", "two", "three", "four", "five", "six", "several", "many"})
+#: Words that count a phrase ("there are *two* chairs", "*several* boxes").
+_COUNTS = frozenset(NUMBER_WORDS) | {"several", "many"}
 #: Verbs that set a described thing beside the target ("next to it *is* a lamp").
 _COPULAS = frozenset({"is", "are", "there", "sits", "sit", "stands", "stand", "lies", "hangs"})
 #: Words that end a clause or open another one.
