@@ -84,6 +84,7 @@ class InMemoryExecutor(Executor):
             Op.UNION: lambda i, s, ins: frozenset().union(*ins),
             Op.INTERSECT: lambda i, s, ins: frozenset.intersection(*ins),
             Op.DIFFERENCE: lambda i, s, ins: ins[0] - ins[1],
+            Op.COALESCE: lambda i, s, ins: next((x for x in ins if x), frozenset()),
             Op.SUPPORT_CLOSURE: self._closure,
             Op.FALL_IF_REMOVED: lambda i, s, ins: self._fall(i, ins[0], paths),
             Op.COUNT: lambda i, s, ins: len(ins[0]),

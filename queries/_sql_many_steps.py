@@ -308,12 +308,30 @@ class SqlManySteps:
         ctes = [cte for _, cte in inputs]
         if op is Op.UNION:
             return sa.union(*(sa.select(c.c.scene_id, c.c.id) for c in ctes))
+        if op is Op.COALESCE:
+            # each input's rows of a scene when every earlier input is empty in that scene
+            return sa.union_all(
+                *(
+                    sa.select(c.c.scene_id, c.c.id).where(
+                        *(self._none_in(p, c.c.scene_id) for p in ctes[:n])
+                    )
+                    for n, c in enumerate(ctes)
+                )
+            )
         head = ctes[0]
         first = sa.select(head.c.scene_id, head.c.id)
         row = sa.tuple_(head.c.scene_id, head.c.id)
         if op is Op.INTERSECT:
             return first.where(*(row.in_(sa.select(c.c.scene_id, c.c.id)) for c in ctes[1:]))
         return first.where(row.not_in(sa.select(ctes[1].c.scene_id, ctes[1].c.id)))
+
+    @staticmethod
+    def _none_in(cte: Any, scene: Any) -> Cond:
+        """``cte`` has no row of scene ``scene`` (read under an alias, so that an input given
+        twice is not correlated with itself)."""
+        other = cte.alias()
+        cond: Cond = ~sa.exists(sa.select(other.c.id).where(other.c.scene_id == scene))
+        return cond
 
     def support_closure(self, name: str, src: tuple[int, Any]) -> Any:
         """A recursive CTE: everything resting on the input, through one or more edges."""

@@ -116,7 +116,7 @@ def compile_shared(c: Any, name: str, step: Step, src: list[tuple[int, Any]]) ->
         return c.relate_between(step, *src).cte(name)
     if op in (Op.ARGMIN, Op.ARGMAX):
         return c.rank(step, *src).cte(name)
-    if op in (Op.UNION, Op.INTERSECT, Op.DIFFERENCE):
+    if op in (Op.UNION, Op.INTERSECT, Op.DIFFERENCE, Op.COALESCE):
         return c.set_op(op, src).cte(name)
     if op is Op.SUPPORT_CLOSURE:
         return c.support_closure(name, src[0])
@@ -379,10 +379,26 @@ class SqlSteps:
         ctes = [cte for _, cte in inputs]
         if op is Op.UNION:
             return sa.union(*(sa.select(c.c.id) for c in ctes))
+        if op is Op.COALESCE:
+            # each input's rows when every earlier input is empty
+            return sa.union_all(
+                *(
+                    sa.select(c.c.id).where(*(self._empty(p) for p in ctes[:n]))
+                    for n, c in enumerate(ctes)
+                )
+            )
         first = sa.select(ctes[0].c.id)
         if op is Op.INTERSECT:
             return first.where(*(ctes[0].c.id.in_(sa.select(c.c.id)) for c in ctes[1:]))
         return first.where(ctes[0].c.id.not_in(sa.select(ctes[1].c.id)))
+
+    @staticmethod
+    def _empty(cte: Any) -> Cond:
+        """``cte`` has no row (read under an alias, so that an input given twice is not
+        correlated with itself)."""
+        other = cte.alias()
+        cond: Cond = ~sa.exists(sa.select(other.c.id))
+        return cond
 
     def support_closure(self, name: str, src: tuple[int, Any]) -> Any:
         """A recursive CTE: everything resting on the input, through one or more edges."""

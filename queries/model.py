@@ -55,7 +55,7 @@ from queries.errors import QueryValidationError
 MIN_VIEW_DISTANCE = 1e-6
 #: Most steps a program may have (also the schema's ``maxItems`` on ``steps``).
 MAX_STEPS = 64
-#: Most inputs of one ``union`` / ``intersect`` step.
+#: Most inputs of one ``union`` / ``intersect`` / ``coalesce`` step.
 MAX_SET_INPUTS = 8
 #: Largest ``k`` (ranked ops keep at most this many entities).
 MAX_K = 100_000
@@ -88,6 +88,7 @@ class Op(StrEnum):
     UNION = "union"
     INTERSECT = "intersect"
     DIFFERENCE = "difference"
+    COALESCE = "coalesce"
     SUPPORT_CLOSURE = "support_closure"
     FALL_IF_REMOVED = "fall_if_removed"
     COUNT = "count"
@@ -224,6 +225,11 @@ OP_SPECS: dict[Op, OpSpec] = {
     Op.UNION: OpSpec(2, MAX_SET_INPUTS, signature="union(S1, S2, ...)"),
     Op.INTERSECT: OpSpec(2, MAX_SET_INPUTS, signature="intersect(S1, S2, ...)"),
     Op.DIFFERENCE: OpSpec(2, 2, signature="difference(S, A): members of S not in A"),
+    Op.COALESCE: OpSpec(
+        2,
+        MAX_SET_INPUTS,
+        signature="coalesce(S1, S2, ...): the first of its inputs that is non-empty",
+    ),
     Op.SUPPORT_CLOSURE: OpSpec(
         1, 1, topological=True, signature="support_closure(S): all that rests on S, transitively"
     ),

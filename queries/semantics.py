@@ -59,6 +59,11 @@ Support
 Stored relations
     ``relate(S, A, r)`` keeps ``s`` when ``s r a`` or ``a inverse(r) s`` is stored for some ``a``
     in ``A`` (so a builder may store either direction).
+
+Sets
+    ``coalesce(S1, S2, ...)``: the first input, in input order, that is non-empty (the empty
+    set when all are). Over many scenes each scene chooses its own: its answer is that of a
+    run on the scene alone.
 """
 
 from __future__ import annotations

@@ -5,7 +5,8 @@ every step's set comes out of the engine as entity IRIs, and later steps read it
 a ``VALUES`` block (the whole scene as ``<scene> bot:containsElement ?e``).
 ``support_closure`` is the property path ``(csg:supported_by|^csg:supports)+``;
 ``fall_if_removed`` is an iterative fixpoint, one query per round (candidates are what
-rests on the entities added in the previous round). The geometric rules of
+rests on the entities added in the previous round); ``coalesce`` sends none (it takes
+the first non-empty input, already in hand). The geometric rules of
 :mod:`queries.semantics` are written into ``FILTER`` / ``BIND`` expressions; the scene centre
 comes from one aggregate query.
 
@@ -161,6 +162,7 @@ class _SparqlRun:
             Op.UNION: self._set_op,
             Op.INTERSECT: self._set_op,
             Op.DIFFERENCE: self._set_op,
+            Op.COALESCE: self._coalesce,
             Op.SUPPORT_CLOSURE: self._closure,
             Op.FALL_IF_REMOVED: self._fall,
             Op.COUNT: self._count,
@@ -329,6 +331,9 @@ class _SparqlRun:
         else:
             body = f"{parts[0]}MINUS {{ {parts[1]} }}\n"
         return self.ids(select_entities(body))
+
+    def _coalesce(self, i: int, step: Step, ins: list[frozenset[int]]) -> RunValue:
+        return next((s for s in ins if s), frozenset())
 
     def _closure(self, i: int, step: Step, ins: list[frozenset[int]]) -> RunValue:
         body = f"{self.members('s', 0, ins[0])}?e {SUPPORT_PATH}+ ?s .\n"

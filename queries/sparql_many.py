@@ -19,7 +19,8 @@ depends on the program, never on the number of scenes:
   entities (seconds over 1,500 scans);
 * ``scene``: one query for the entities of all selected scenes, once per run;
 * no query: ``union``, ``intersect``, ``difference`` (set algebra on IRIs already in
-  hand), ``count`` and ``exists`` (the size of a set in hand, per scene).
+  hand), ``coalesce`` (each scene's first non-empty input, in hand), ``count`` and
+  ``exists`` (the size of a set in hand, per scene).
 
 The scene facts are one query each for all scenes: the distinct categories, captions and
 attribute pairs of every scene the endpoint holds (every rule of :mod:`queries.semantics`
@@ -156,6 +157,7 @@ class _ManyRun:
             Op.UNION: self._set_op,
             Op.INTERSECT: self._set_op,
             Op.DIFFERENCE: self._set_op,
+            Op.COALESCE: self._set_op,
             Op.SUPPORT_CLOSURE: self._closure,
             Op.FALL_IF_REMOVED: self._fall,
             Op.COUNT: self._count,
@@ -381,6 +383,8 @@ class _ManyRun:
             return {sid: frozenset().union(*(s[sid] for s in ins)) for sid in live}
         if step.op is Op.INTERSECT:
             return {sid: frozenset.intersection(*(s[sid] for s in ins)) for sid in live}
+        if step.op is Op.COALESCE:  # the first input non-empty in each scene
+            return {sid: next((s[sid] for s in ins if s[sid]), frozenset()) for sid in live}
         return {sid: ins[0][sid] - ins[1][sid] for sid in live}
 
     def _closure(self, i: int, step: Step, ins: list[ByScene], live: list[str]) -> ByScene:

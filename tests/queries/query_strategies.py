@@ -115,7 +115,7 @@ def steps_for(draw: st.DrawFn, op: Op, sets: list[int]) -> dict[str, Any]:
         step["k"] = draw(st.none() | st.integers(1, 4))
         if metric.is_seen_from:
             step["viewpoint"] = draw(viewpoints())
-    elif op in (Op.UNION, Op.INTERSECT):
+    elif op in (Op.UNION, Op.INTERSECT, Op.COALESCE):
         step["inputs"] = _refs(draw, sets, draw(st.integers(2, 3)))
     elif op is Op.DIFFERENCE:
         step["inputs"] = _refs(draw, sets, 2)

@@ -137,6 +137,43 @@ def test_counterfactual_paths_are_per_scene(store: GraphStore) -> None:
         assert got[g.scene_id] == NetworkxExecutor(g).run(COUNTERFACTUAL)
 
 
+COALESCE = {
+    "query_type": "spatial",
+    "steps": [
+        {"op": "scene"},
+        {"op": "filter_category", "inputs": [0], "value": "cup"},
+        {"op": "filter_category", "inputs": [0], "value": "spoon"},
+        {"op": "filter_category", "inputs": [0], "value": "table"},
+        {"op": "coalesce", "inputs": [1, 3]},
+        {"op": "coalesce", "inputs": [1, 2]},
+        {"op": "coalesce", "inputs": [2, 1, 3]},
+        {"op": "count", "inputs": [4]},
+    ],
+    "answer_step": 4,
+}
+
+
+def test_coalesce_chooses_per_scene(store: GraphStore) -> None:
+    """The cup and the spoon are in s1 and s3, not in s2: each scene takes its own first
+    non-empty input, on every executor, with and without a scene filter."""
+    graphs = [_support_scene("s1", True), _support_scene("s2", False), _support_scene("s3", True)]
+    _fill(store, graphs)
+    runs = [run_program_all(store, COALESCE, executor=e) for e in ("sql", "sparql", "networkx")]
+    runs += [
+        run_program_all(store, COALESCE, executor="sparql", sparql_backend="rdflib"),
+        run_program_all(store, COALESCE, scenes=["s1", "s2"], executor="sql"),
+        run_program_all(store, COALESCE, scenes=["s2", "s3"], executor="sparql"),
+    ]
+    reference = {g.scene_id: NetworkxExecutor(g).run(COALESCE) for g in graphs}
+    # steps 4 to 7: coalesce(cup, table), coalesce(cup, spoon), coalesce(spoon, cup, table)
+    chosen = {"s1": ((3,), (3,), (4,), 1), "s2": ((2,), (), (2,), 1)}
+    chosen["s3"] = chosen["s1"]
+    for got in runs:
+        for sid, result in got.items():
+            assert result.steps[4:] == chosen[sid], (got.executor, sid)
+            assert result == reference[sid]
+
+
 def test_selection_by_glob_list_and_errors(store: GraphStore) -> None:
     _fill(store, [_support_scene(s, True) for s in ("scene0001_00", "scene0002_00", "other")])
     program = GraphQuery.parse(COUNTERFACTUAL)

@@ -133,6 +133,41 @@ def test_every_case(executor: Executor) -> None:
         assert result.steps[1] == (1,) and result.steps[2] == (2, 3, 4)
 
 
+#: ``HEAD`` and two empty sets (v4, v5) for ``coalesce``.
+COALESCE_HEAD = HEAD + 'v4 = filter_category(v0, "nothing")\nv5 = relate(v2, v1, supported_by)\n'
+COALESCE_CASES = [
+    # the first input non-empty: the first
+    ("v6 = coalesce(v1, v2)", (1,)),
+    ("v6 = coalesce(v2, v4)", (2, 3, 4)),
+    # the first empty, the second not: the second
+    ("v6 = coalesce(v4, v3)", (7, 8)),
+    ("v6 = coalesce(v5, v0)", tuple(range(10))),
+    # all empty: empty
+    ("v6 = coalesce(v4, v5)", ()),
+    ("v6 = coalesce(v4, v4, v5)", ()),
+    # three inputs and more: the first non-empty, whatever follows it
+    ("v6 = coalesce(v4, v5, v3, v2)", (7, 8)),
+    ("v6 = coalesce(v5, v4, v5, v4, v5, v4, v5, v1)", (1,)),
+    ("v6 = coalesce(v2, v4, v3)", (2, 3, 4)),
+    # an input given twice
+    ("v6 = coalesce(v3, v3)", (7, 8)),
+    ("v6 = coalesce(v4, v2, v4)", (2, 3, 4)),
+    # an input that may list an id twice (relate), and a coalesce read by later steps
+    ("v6 = relate(v0, v1, near)\nv7 = coalesce(v4, v6)", (2,)),
+    ("v6 = coalesce(v4, v2)\nv7 = relate(v6, v1, near)", (2,)),
+    ("v6 = coalesce(v4, v5, v3)\nv7 = count(v6)", 2),
+    ("v6 = coalesce(v4, v5)\nv7 = exists(v6)", False),
+]
+
+
+def test_coalesce_takes_the_first_non_empty_input(executor: Executor) -> None:
+    for body, expected in COALESCE_CASES:
+        result = executor.run(GraphQuery.from_text(COALESCE_HEAD + body))
+        assert result.answer == expected, f"{body}: {result.answer} != {expected}"
+        assert type(result.answer) is type(expected)
+        assert result.steps[1:6] == ((1,), (2, 3, 4), (7, 8), (), ())
+
+
 def test_results_carry_every_step_and_explain(executor: Executor) -> None:
     result = executor.run(GraphQuery.from_text(HEAD + "v4 = relate(v2, v1, left_of)"))
     assert result.steps == (tuple(range(10)), (1,), (2, 3, 4), (7, 8), (2,))

@@ -158,6 +158,7 @@ PROGRAMS = {
             {"op": "match_text", "inputs": [0], "value": "red cup", "k": 2},
             {"op": "union", "inputs": [3, 4, 5, 6]},
             {"op": "count", "inputs": [7]},
+            {"op": "coalesce", "inputs": [3, 4, 6]},
         ],
     },
     "closure": {
