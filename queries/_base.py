@@ -77,6 +77,19 @@ def run_sets(
     )
 
 
+def middle(keyed: Sequence[tuple[Any, int]]) -> frozenset[int]:
+    """The ids in the middle of ``(key, id)`` pairs in ascending order: the one of an odd
+    count, the two of an even count (none of none)."""
+    return middle_of([entity for _, entity in sorted(keyed)])
+
+
+def middle_of(ordered: Sequence[int]) -> frozenset[int]:
+    """The ids in the middle of ``ordered`` (ids already in rank order): the one of an odd
+    count, the two of an even count (none of none)."""
+    n = len(ordered)
+    return frozenset(ordered[(n - 1) // 2 : n // 2 + 1])
+
+
 def top_k(keyed: Sequence[tuple[Any, int]], k: int) -> frozenset[int]:
     """The ids of the first ``k`` of ``(key, id)`` pairs in ascending order."""
     return frozenset(entity for _, entity in sorted(keyed)[:k])

@@ -14,7 +14,7 @@ from collections.abc import Iterable, Mapping
 from typing import Any
 
 from graph_store.types import Entity, RelationType, SceneGraph
-from queries._base import Executor, RunValue, run_sets, top_k
+from queries._base import Executor, RunValue, middle, run_sets, top_k
 from queries.model import GraphQuery, Op, Step
 from queries.result import QueryResult
 from queries.semantics import (
@@ -81,6 +81,7 @@ class InMemoryExecutor(Executor):
             Op.RELATE_BETWEEN: self._between,
             Op.ARGMIN: self._rank,
             Op.ARGMAX: self._rank,
+            Op.MIDDLE: self._rank,
             Op.UNION: lambda i, s, ins: frozenset().union(*ins),
             Op.INTERSECT: lambda i, s, ins: frozenset.intersection(*ins),
             Op.DIFFERENCE: lambda i, s, ins: ins[0] - ins[1],
@@ -165,7 +166,7 @@ class InMemoryExecutor(Executor):
     def _rank(self, i: int, step: Step, ins: list[frozenset[int]]) -> RunValue:
         metric = step.metric
         assert metric is not None
-        sign = 1.0 if step.op is Op.ARGMIN else -1.0
+        sign = -1.0 if step.op is Op.ARGMAX else 1.0
         keyed: list[tuple[float, int]] = []
         reference = [(a, self._entity(a)) for a in ins[1]] if len(ins) == 2 else []
         for x in ins[0]:
@@ -194,6 +195,8 @@ class InMemoryExecutor(Executor):
                 c = self._centre
                 value = reference_distance(PY, metric.value, e.centroid, c, c, c)
             keyed.append((sign * value, x))
+        if step.op is Op.MIDDLE:
+            return middle(keyed)
         return top_k(keyed, step.effective_k)
 
     def _closure(self, i: int, step: Step, ins: list[frozenset[int]]) -> RunValue:

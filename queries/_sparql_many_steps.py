@@ -14,6 +14,7 @@ from __future__ import annotations
 from collections.abc import Collection, Iterable, Mapping, Sequence
 
 from graph_store.rdf.iris import entity_iri, scene_iri
+from queries._base import middle_of
 from queries._sparql_steps import values
 from queries.errors import QueryExecutionError
 
@@ -69,6 +70,16 @@ class ManyPatterns:
             if len(out[sid]) < k:  # rows, as LIMIT counts them
                 out[sid].append(x)
         return {sid: frozenset(ids) for sid, ids in out.items()}
+
+    def middle(self, ordered: Iterable[str]) -> ByScene:
+        """The middle entity of each scene in ``ordered`` (two of an even count; a query's
+        ``ORDER BY`` over all scenes orders each scene's rows as that scene's own query
+        would)."""
+        out: dict[str, list[int]] = {sid: [] for sid in self.scene_ids}
+        for iri in ordered:
+            sid, x = self.split(iri)
+            out[sid].append(x)
+        return {sid: middle_of(ids) for sid, ids in out.items()}
 
     def scenes(self, var: str, scene_ids: Iterable[str]) -> str:
         """``VALUES ?var { <scene> ... }``."""

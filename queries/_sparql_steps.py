@@ -29,7 +29,7 @@ BOX = ("minX", "minY", "minZ", "maxX", "maxY", "maxZ")
 EMPTY_IN_EMPTY_OUT = frozenset(
     {
         Op.FILTER_CATEGORY, Op.FILTER_ATTRIBUTE, Op.FILTER_AFFORDANCE, Op.MATCH_TEXT,
-        Op.RELATE, Op.RELATE_BETWEEN, Op.ARGMIN, Op.ARGMAX, Op.INTERSECT,
+        Op.RELATE, Op.RELATE_BETWEEN, Op.ARGMIN, Op.ARGMAX, Op.MIDDLE, Op.INTERSECT,
         Op.SUPPORT_CLOSURE, Op.FALL_IF_REMOVED,
     }
 )  # fmt: skip

@@ -4,12 +4,14 @@ The multi-scene twin of :mod:`queries._sql_steps`: every step is a ``SELECT`` of
 ``(scene_id, id)`` rows instead of ``id`` rows of one scene, so a single statement answers
 a program for every selected scene. Inputs are read as row values
 (``(scene_id, id) IN (SELECT scene_id, id FROM sN)``), joins between two inputs match on
-the scene, the scene centre is one row per scene, and the two ops that keep the first
+the scene, the scene centre is one row per scene, and the ops that keep the first
 ``k`` (``match_text``, ``argmin`` / ``argmax``) number their rows per scene with
-``ROW_NUMBER() OVER (PARTITION BY scene_id ...)``. Text filters bind the stored strings
-they select among the selected scenes' distinct strings: every rule of
-:mod:`queries.semantics` that picks strings looks at one string at a time, and text ranks
-are only compared within a scene, so the strings of other scenes change nothing.
+``ROW_NUMBER() OVER (PARTITION BY scene_id ...)``; ``middle`` numbers them so and counts
+them with ``COUNT(*) OVER (PARTITION BY scene_id)``, keeping each scene's middle row (two
+of an even count). Text filters bind the stored strings they select among the selected
+scenes' distinct strings: every rule of :mod:`queries.semantics` that picks strings looks
+at one string at a time, and text ranks are only compared within a scene, so the strings
+of other scenes change nothing.
 """
 
 from __future__ import annotations
@@ -23,7 +25,17 @@ from sqlalchemy.engine import Connection
 
 from graph_store import models as m
 from graph_store.types import RelationType
-from queries._sql_steps import ATTR, NO_RANK, REL, SQL, Cond, E, located
+from queries._sql_steps import (
+    ATTR,
+    NO_RANK,
+    REL,
+    SQL,
+    Cond,
+    E,
+    in_the_middle,
+    located,
+    middle_numbers,
+)
 from queries.model import Op, Step
 from queries.semantics import (
     QueryConfig,
@@ -196,6 +208,13 @@ class SqlManySteps:
         ranked = sa.select(keyed.c.scene_id, keyed.c.id, number.label("n")).subquery("ranked")
         return sa.select(ranked.c.scene_id, ranked.c.id).where(ranked.c.n <= k)
 
+    @staticmethod
+    def _middle(keyed: Any, order: Sequence[Any]) -> Any:
+        """The middle row of each scene of ``keyed`` (two of an even count) in ``order``."""
+        numbers = middle_numbers(list(order), keyed.c.scene_id)
+        ranked = sa.select(keyed.c.scene_id, keyed.c.id, *numbers).subquery("ranked")
+        return sa.select(ranked.c.scene_id, ranked.c.id).where(in_the_middle(ranked))
+
     def match_text(self, step: Step, src: tuple[int, Any]) -> Any:
         ranks = rank_texts(step.value or "", [*self.categories(), *self.captions()])
         where = self.members(E.c.scene_id, E.c.id, *src)
@@ -301,7 +320,9 @@ class SqlManySteps:
                 .where(*base)
             )
         sub = keyed.subquery("keyed")
-        order = sub.c.v.asc() if step.op is Op.ARGMIN else sub.c.v.desc()
+        order = sub.c.v.desc() if step.op is Op.ARGMAX else sub.c.v.asc()
+        if step.op is Op.MIDDLE:
+            return self._middle(sub, [order, sub.c.id])
         return self._first_k(sub, [order, sub.c.id], step.effective_k)
 
     def set_op(self, op: Op, inputs: list[tuple[int, Any]]) -> Any:

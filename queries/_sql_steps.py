@@ -4,7 +4,10 @@ Every step becomes a ``SELECT`` with a single ``id`` column, reading its inputs'
 the ``entities`` / ``entity_attributes`` / ``relations`` rows of one scene. Geometric
 predicates come from :mod:`queries.semantics` through :class:`SqlAlgebra`; the strings that
 text filters select are worked out in Python from the scene's distinct stored strings and
-bound as parameters (see the semantics module).
+bound as parameters (see the semantics module). ``argmin`` / ``argmax`` order their
+candidates' ``(metric, id)`` rows and keep the first ``k`` (``LIMIT``); ``middle`` numbers
+the rows in ``argmin``'s order (``ROW_NUMBER() OVER``), counts them (``COUNT(*) OVER ()``)
+and keeps the middle one (two of an even count).
 """
 
 from __future__ import annotations
@@ -114,13 +117,29 @@ def compile_shared(c: Any, name: str, step: Step, src: list[tuple[int, Any]]) ->
         return c.relate(step, src[0], src[1]).cte(name)
     if op is Op.RELATE_BETWEEN:
         return c.relate_between(step, *src).cte(name)
-    if op in (Op.ARGMIN, Op.ARGMAX):
+    if op in (Op.ARGMIN, Op.ARGMAX, Op.MIDDLE):
         return c.rank(step, *src).cte(name)
     if op in (Op.UNION, Op.INTERSECT, Op.DIFFERENCE, Op.COALESCE):
         return c.set_op(op, src).cte(name)
     if op is Op.SUPPORT_CLOSURE:
         return c.support_closure(name, src[0])
     return None
+
+
+def middle_numbers(order: list[Any], partition: Any = None) -> tuple[Num, Num]:
+    """``r``: each row's place in ``order`` (from 1), and ``n``: the number of rows (both
+    within ``partition`` when given), for :func:`in_the_middle`."""
+    place = sa.func.row_number().over(partition_by=partition, order_by=order)
+    count = sa.func.count().over(partition_by=partition)
+    return place.label("r"), count.label("n")
+
+
+def in_the_middle(ranked: Any) -> Cond:
+    """The row of ``ranked`` (with the columns of :func:`middle_numbers`) in the middle:
+    ``0 <= 2r - n <= 2`` holds for ``r = (n + 1) / 2`` of an odd ``n`` and for ``r = n / 2``
+    and ``n / 2 + 1`` of an even one."""
+    cond: Cond = (ranked.c.r * 2 - ranked.c.n).between(0, 2)
+    return cond
 
 
 def ids_literal(ids: set[int] | frozenset[int] | list[int], name: str) -> Any:
@@ -372,7 +391,10 @@ class SqlSteps:
             d = reference_distance(SQL, metric.value, centroid, point, point, point)
             keyed = sa.select(s.c.id, d.label("v")).select_from(s.join(c, sa.true())).where(*base)
         sub = keyed.subquery("keyed")
-        order = sub.c.v.asc() if step.op is Op.ARGMIN else sub.c.v.desc()
+        order = sub.c.v.desc() if step.op is Op.ARGMAX else sub.c.v.asc()
+        if step.op is Op.MIDDLE:
+            ranked = sa.select(sub.c.id, *middle_numbers([order, sub.c.id])).subquery("ranked")
+            return sa.select(ranked.c.id).where(in_the_middle(ranked))
         return sa.select(sub.c.id).order_by(order, sub.c.id).limit(step.effective_k)
 
     def set_op(self, op: Op, inputs: list[tuple[int, Any]]) -> Any:

@@ -3,8 +3,8 @@
 Per step ``i``: its number of inputs fits its op; every input is an earlier step whose
 result is a set (``count`` / ``exists`` results are never inputs); the fields its op
 requires are set and every other field is absent or null; ``viewpoint`` only with a
-view-dependent relation; a second ``argmin``/``argmax`` input only with ``metric:
-distance``; ``value`` strings are usable (see :func:`check_value`). Program level:
+view-dependent relation; a second ``argmin`` / ``argmax`` / ``middle`` input only with
+a distance metric; ``value`` strings are usable (see :func:`check_value`). Program level:
 ``answer_step`` names a step; an ``intrinsic`` program has no topological step
 (``relate``, ``relate_between``, ``support_closure``, ``fall_if_removed``).
 """
@@ -76,7 +76,7 @@ def _check_inputs(i: int, step: Step, steps: tuple[Step, ...]) -> None:
             )
     if (
         n == 2
-        and step.op.value in ("argmin", "argmax")
+        and step.op.value in ("argmin", "argmax", "middle")
         and step.metric is not None
         and not step.metric.is_distance
     ):

@@ -85,6 +85,7 @@ class Op(StrEnum):
     RELATE_BETWEEN = "relate_between"
     ARGMIN = "argmin"
     ARGMAX = "argmax"
+    MIDDLE = "middle"
     UNION = "union"
     INTERSECT = "intersect"
     DIFFERENCE = "difference"
@@ -96,7 +97,7 @@ class Op(StrEnum):
 
 
 class Metric(StrEnum):
-    """What ``argmin`` / ``argmax`` rank by (all in scene units, world frame).
+    """What ``argmin`` / ``argmax`` / ``middle`` rank by (all in scene units, world frame).
 
     ``distance``: centroid distance to the nearest *other* member of the second input
     (without one: to the scene centre); ``horizontal_distance``: the same in the ``x``-``y``
@@ -116,8 +117,9 @@ class Metric(StrEnum):
     centroid coordinate;
     ``height``: vertical bounding-box extent; ``volume``: bounding-box volume;
     ``rightward``: how far to the right of the step's ``viewpoint`` (the observer at ``eye``
-    looking at ``target``) the centroid lies, horizontally, so ``argmax`` is the rightmost
-    and ``argmin`` the leftmost as the observer sees them (needs ``viewpoint``);
+    looking at ``target``) the centroid lies, horizontally, so ``argmax`` is the rightmost,
+    ``argmin`` the leftmost and ``middle`` the one in the middle as the observer sees them
+    (needs ``viewpoint``);
     ``forward``: how far ahead of the observer, along the line of sight, so ``argmin`` is
     the nearest ahead and ``argmax`` the farthest ("across the room from the door": the
     observer at the door, looking into the room; needs ``viewpoint``).
@@ -221,6 +223,13 @@ OP_SPECS: dict[Op, OpSpec] = {
         ("metric",),
         ("k", "viewpoint"),
         signature="argmax(S, [A], metric, k=1): the k largest",
+    ),
+    Op.MIDDLE: OpSpec(
+        1,
+        2,
+        ("metric",),
+        ("viewpoint",),
+        signature="middle(S, [A], metric): the one in the middle by metric (two of an even count)",
     ),
     Op.UNION: OpSpec(2, MAX_SET_INPUTS, signature="union(S1, S2, ...)"),
     Op.INTERSECT: OpSpec(2, MAX_SET_INPUTS, signature="intersect(S1, S2, ...)"),

@@ -23,8 +23,8 @@ flat :func:`graph_query_schema` is unchanged.
 
 :func:`graph_query_schema_by_op` says what the flat schema cannot: a step is one of a list
 of per-op schemas (``anyOf``), each holding only the fields its op takes, with the op's
-arity as ``minItems`` / ``maxItems`` of ``inputs``; ``relate``, ``argmin`` and ``argmax`` are
-two schemas each, and only the one whose relation (or metric, ``rightward`` or
+arity as ``minItems`` / ``maxItems`` of ``inputs``; ``relate``, ``argmin``, ``argmax`` and
+``middle`` are two schemas each, and only the one whose relation (or metric, ``rightward`` or
 ``forward``) is seen from a viewpoint has a ``viewpoint``. Under a grammar (llama.cpp,
 OpenAI's strict mode, both accept ``anyOf``) a model then cannot write a field its op does
 not use: a small model that fills every field it is offered otherwise writes a viewpoint of
@@ -91,7 +91,7 @@ def _build() -> dict[str, Any]:
             "metric": {
                 "type": "string",
                 "enum": [m.value for m in Metric],
-                "description": "What argmin/argmax rank by.",
+                "description": "What argmin/argmax/middle rank by.",
             },
             "k": {
                 "type": "integer",
@@ -176,7 +176,7 @@ def _build_by_op() -> dict[str, Any]:
             split = [r for r in RelationType if not r.is_view_dependent]
             variants.append(_step_schema(op, split))
             variants.append(_step_schema(op, [r for r in RelationType if r.is_view_dependent]))
-        elif op in (Op.ARGMIN, Op.ARGMAX):
+        elif op in (Op.ARGMIN, Op.ARGMAX, Op.MIDDLE):
             plain: list[Metric] = [m for m in Metric if not m.is_seen_from]
             variants.append(_step_schema(op, metrics=plain))
             variants.append(_step_schema(op, metrics=[m for m in Metric if m.is_seen_from]))

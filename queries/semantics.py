@@ -27,7 +27,9 @@ Geometry (world frame, scene units, ``z`` up; see :class:`Algebra`)
       ``relu(lo - c) + relu(c - hi)`` with ``relu(a) = (a + abs(a)) * 0.5``; 0 inside the
       box); to the scene centre without a reference set. See :func:`reference_distance`.
     * ``argmin`` / ``argmax``: sort by (metric ascending / descending, entity id ascending),
-      keep the first ``k``. ``rightward`` (:func:`metric_value`): ``d·(f.y, -f.x)`` with
+      keep the first ``k``. ``middle``: sort as ``argmin`` does and keep the ``(n + 1) / 2``-th
+      of an odd number ``n`` of members, the ``n / 2``-th and ``(n / 2 + 1)``-th of an even
+      number (none of none). ``rightward`` (:func:`metric_value`): ``d·(f.y, -f.x)`` with
       ``f = target - eye`` of the step's viewpoint and ``d = centroid - eye``; ``forward``:
       ``d·f``.
     * View-dependent relations (:func:`view_relation`), horizontal plane only: the observer

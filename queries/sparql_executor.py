@@ -6,9 +6,10 @@ a ``VALUES`` block (the whole scene as ``<scene> bot:containsElement ?e``).
 ``support_closure`` is the property path ``(csg:supported_by|^csg:supports)+``;
 ``fall_if_removed`` is an iterative fixpoint, one query per round (candidates are what
 rests on the entities added in the previous round); ``coalesce`` sends none (it takes
-the first non-empty input, already in hand). The geometric rules of
-:mod:`queries.semantics` are written into ``FILTER`` / ``BIND`` expressions; the scene centre
-comes from one aggregate query.
+the first non-empty input, already in hand); ``middle`` sends ``argmin``'s query without
+its ``LIMIT`` and keeps the middle of the ordered answer (two of an even count). The
+geometric rules of :mod:`queries.semantics` are written into ``FILTER`` / ``BIND``
+expressions; the scene centre comes from one aggregate query.
 
 The executor reads the scene's entity ids, distinct categories, captions and attribute
 pairs, and its centre, once and keeps them: it assumes the endpoint's data does not change
@@ -22,7 +23,7 @@ from collections import defaultdict
 from typing import Any
 
 from graph_store.types import SceneGraph
-from queries._base import Executor, RunValue, run_sets
+from queries._base import Executor, RunValue, middle_of, run_sets
 from queries._sparql_steps import (
     BOX,
     EMPTY_IN_EMPTY_OUT,
@@ -159,6 +160,7 @@ class _SparqlRun:
             Op.RELATE_BETWEEN: self._between,
             Op.ARGMIN: self._rank,
             Op.ARGMAX: self._rank,
+            Op.MIDDLE: self._rank,
             Op.UNION: self._set_op,
             Op.INTERSECT: self._set_op,
             Op.DIFFERENCE: self._set_op,
@@ -310,12 +312,12 @@ class _SparqlRun:
             point = (c[0], c[1], c[2])
             d = reference_distance(SPARQL, metric.value, centroid, point, point, point)
             keyed = f"{self.located('e', 0, ins[0], 'localId', *XYZ)}BIND ({d} AS ?v)\n"
-        order = "?v" if step.op is Op.ARGMIN else "DESC(?v)"
-        text = (
-            f"{PROLOGUE}SELECT ?e ?v WHERE {{\n{keyed}}}"
-            f" ORDER BY {order} ?e_localId LIMIT {step.effective_k}"
-        )
-        return self.ids(text)
+        order = "DESC(?v)" if step.op is Op.ARGMAX else "?v"
+        text = f"{PROLOGUE}SELECT ?e ?v WHERE {{\n{keyed}}} ORDER BY {order} ?e_localId"
+        if step.op is Op.MIDDLE:  # every candidate in argmin's order, the middle kept here
+            ordered = [self.p.entity_id(iri) for iri in self.ep.iris(text)]
+            return middle_of(ordered)
+        return self.ids(f"{text} LIMIT {step.effective_k}")
 
     def _set_op(self, i: int, step: Step, ins: list[frozenset[int]]) -> RunValue:
         parts = [self.members("e", n, s) for n, s in enumerate(ins)]

@@ -10,7 +10,7 @@ depends on the program, never on the number of scenes:
 
 * one query per step: ``filter_category``, ``filter_attribute``, ``filter_affordance``,
   ``match_text``, ``relate`` (stored and view-dependent), ``relate_between``, ``argmin``,
-  ``argmax`` and ``support_closure``;
+  ``argmax``, ``middle`` and ``support_closure``;
 * ``fall_if_removed``: one query per round for all scenes (a scene's round ``r`` reads only
   its own IRIs, so its rounds are those of its own run; a scene whose fixpoint is reached
   drops out of later rounds), then one query for the fallen entities' supporters. The
@@ -33,10 +33,12 @@ SPARQL 1.1 has no window function to keep the first ``k`` rows of each scene, so
 ``match_text``, ``argmin`` and ``argmax`` send the per-scene query without its ``LIMIT``:
 the engine computes every candidate's key and sorts all scenes' rows by the per-scene
 ``ORDER BY`` (key, then local id), and the first ``k`` rows of each scene are kept in
-Python. A global sort orders each scene's rows exactly as that scene's own sort does, so
-ties are broken alike. An op with an empty input in a scene is empty there without asking
-the engine (as in the per-scene executor); such scenes are left out of the step's query,
-and a step with no scene left sends none.
+Python; ``middle`` sends its query so too (the per-scene executor also asks it without a
+``LIMIT``) and keeps each scene's middle row (two of an even count). A global sort orders
+each scene's rows exactly as that scene's own sort does, so ties are broken alike. An op
+with an empty input in a scene is empty there without asking the engine (as in the
+per-scene executor); such scenes are left out of the step's query, and a step with no
+scene left sends none.
 
 Every scene's :class:`~queries.QueryResult` (answer, step values, support paths) equals
 :class:`~queries.sparql_executor.SparqlExecutor`'s on that scene.
@@ -154,6 +156,7 @@ class _ManyRun:
             Op.RELATE_BETWEEN: self._between,
             Op.ARGMIN: self._rank,
             Op.ARGMAX: self._rank,
+            Op.MIDDLE: self._rank,
             Op.UNION: self._set_op,
             Op.INTERSECT: self._set_op,
             Op.DIFFERENCE: self._set_op,
@@ -374,8 +377,10 @@ class _ManyRun:
             d = reference_distance(SPARQL, metric.value, centroid, _CENTRE, _CENTRE, _CENTRE)
             body = self.located("e", 0, ins, live, "localId", *XYZ) + self.centre_values(live, 3)
             keyed = f"{body}BIND ({d} AS ?v)\n"
-        order = "?v" if step.op is Op.ARGMIN else "DESC(?v)"
+        order = "DESC(?v)" if step.op is Op.ARGMAX else "?v"
         text = f"{PROLOGUE}SELECT ?e ?v WHERE {{\n{keyed}}} ORDER BY {order} ?e_localId"
+        if step.op is Op.MIDDLE:
+            return self.p.middle(self.ep.iris(text))
         return self.p.first_k(self.ep.iris(text), step.effective_k)
 
     def _set_op(self, i: int, step: Step, ins: list[ByScene], live: list[str]) -> ByScene:

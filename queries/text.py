@@ -6,7 +6,7 @@ Grammar (one statement per line; blank lines and ``#`` comments are ignored)::
     step      := REF "=" OP "(" [arg ("," arg)*] ")"
     arg       := REF                          -- an input; inputs come first, in order
                | STRING                       -- value
-               | NAME                         -- relation (relate) or metric (argmin/argmax)
+               | NAME                         -- relation (relate), metric (argmin/argmax/middle)
                | "k" "=" INT
                | "value" "=" STRING | "relation" "=" NAME | "metric" "=" NAME
                | "viewpoint" "=" "(" NUM "," NUM "," NUM ")" "->" "(" NUM "," NUM "," NUM ")"

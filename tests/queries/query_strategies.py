@@ -108,11 +108,12 @@ def steps_for(draw: st.DrawFn, op: Op, sets: list[int]) -> dict[str, Any]:
             step["viewpoint"] = draw(viewpoints())
     elif op is Op.RELATE_BETWEEN:
         step["inputs"] = _refs(draw, sets, 3)
-    elif op in (Op.ARGMIN, Op.ARGMAX):
+    elif op in (Op.ARGMIN, Op.ARGMAX, Op.MIDDLE):
         metric = draw(st.sampled_from(list(Metric)))
         two = metric.is_distance and draw(st.booleans())
         step.update(inputs=_refs(draw, sets, 2 if two else 1), metric=metric.value)
-        step["k"] = draw(st.none() | st.integers(1, 4))
+        if op is not Op.MIDDLE:
+            step["k"] = draw(st.none() | st.integers(1, 4))
         if metric.is_seen_from:
             step["viewpoint"] = draw(viewpoints())
     elif op in (Op.UNION, Op.INTERSECT, Op.COALESCE):

@@ -15,8 +15,8 @@ from tests.queries.query_strategies import programs
 
 KEYS = ["query_type", "steps", "answer_step", "op", "inputs", "value", "relation", "metric",
         "k", "viewpoint", "eye", "target"]  # fmt: skip
-WORDS = ["spatial", "intrinsic", "scene", "relate", "argmin", "count", "near", "left_of",
-         "distance", "z", "color=red", "sink"]  # fmt: skip
+WORDS = ["spatial", "intrinsic", "scene", "relate", "argmin", "middle", "count", "near",
+         "left_of", "distance", "z", "color=red", "sink"]  # fmt: skip
 
 scalars = (
     st.none()

@@ -94,6 +94,18 @@ INVALID = [
                    "viewpoint": {"eye": [0, 0, 0], "target": [1, 0, 0]}}),
         4, "viewpoint", "metrics 'rightward' and 'forward'",
     ),
+    (with_step({"op": "middle", "inputs": [1]}), 4, "metric", "required"),
+    (with_step({"op": "middle", "inputs": [1], "metric": "z", "k": 1}), 4, "k", "not used"),
+    (with_step({"op": "middle", "inputs": [1, 2], "metric": "x"}), 4, "inputs", "distance"),
+    (with_step({"op": "middle", "inputs": [1, 2, 3], "metric": "distance"}), 4, "inputs",
+     "1 to 2"),
+    (with_step({"op": "middle", "inputs": [1], "metric": "rightward"}), 4, "viewpoint",
+     "metric 'rightward' needs"),
+    (
+        with_step({"op": "middle", "inputs": [1], "metric": "height",
+                   "viewpoint": {"eye": [0, 0, 0], "target": [1, 0, 0]}}),
+        4, "viewpoint", "metrics 'rightward' and 'forward'",
+    ),
     (
         with_step({"op": "match_text", "inputs": [0], "value": "cup", "k": 0}),
         4, "k", "greater than or equal to 1",

@@ -174,6 +174,66 @@ def test_coalesce_chooses_per_scene(store: GraphStore) -> None:
             assert result == reference[sid]
 
 
+def _cups(scene_id: str, xs: tuple[float, ...]) -> SceneGraph:
+    """A table at the origin and cups ``10, 11, ...`` at ``x = xs[0], xs[1], ...``."""
+    from graph_store.types import Entity, SceneMeta
+
+    def box(i: int, cat: str, x: float, z: float) -> Entity:
+        return Entity(i, cat, (x, 0.0, z), (x - 0.2, -0.2, z - 0.2), (x + 0.2, 0.2, z + 0.2))
+
+    ents = [box(1, "table", 0.0, 0.4), *(box(10 + n, "cup", x, 0.8) for n, x in enumerate(xs))]
+    return SceneGraph(SceneMeta(scene_id), tuple(ents))
+
+
+MIDDLE = {
+    "query_type": "spatial",
+    "steps": [
+        {"op": "scene"},
+        {"op": "filter_category", "inputs": [0], "value": "cup"},
+        {"op": "filter_category", "inputs": [0], "value": "table"},
+        {"op": "middle", "inputs": [1], "metric": "x"},
+        {"op": "middle", "inputs": [1, 2], "metric": "distance"},
+        # looking along +y from below the table: right is +x
+        {"op": "middle", "inputs": [1], "metric": "rightward",
+         "viewpoint": {"eye": [0.0, -5.0, 1.0], "target": [0.0, 0.0, 1.0]}},
+        {"op": "count", "inputs": [3]},
+    ],
+    "answer_step": 3,
+}  # fmt: skip
+
+
+def test_middle_chooses_per_scene(store: GraphStore) -> None:
+    """Five cups in s1, two in s2, none in s3, three level with each other in s4: each
+    scene keeps the middle of its own cups, on every executor, with and without a scene
+    filter."""
+    graphs = [
+        _cups("s1", (3.0, 1.0, 2.0, 5.0, 4.0)),  # by x: 11, 12, 10, 14, 13
+        _cups("s2", (2.0, 1.0)),  # by x: 11, 10
+        _cups("s3", ()),
+        _cups("s4", (2.0, 2.0, 2.0)),  # a tie: by id
+    ]
+    _fill(store, graphs)
+    runs = [run_program_all(store, MIDDLE, executor=e) for e in ("sql", "sparql", "networkx")]
+    runs += [
+        run_program_all(store, MIDDLE, executor="sparql", sparql_backend="rdflib"),
+        run_program_all(store, MIDDLE, scenes=["s1", "s2", "s4"], executor="sql"),
+        run_program_all(store, MIDDLE, scenes=["s2", "s3"], executor="sparql"),
+    ]
+    reference = {g.scene_id: NetworkxExecutor(g).run(MIDDLE) for g in graphs}
+    # steps 3 to 6: by x, by distance to the table, by rightward, the count of the first
+    chosen = {
+        "s1": ((10,), (10,), (10,), 1),
+        "s2": ((10, 11), (10, 11), (10, 11), 2),
+        "s3": ((), (), (), 0),
+        "s4": ((11,), (11,), (11,), 1),
+    }
+    for got in runs:
+        assert got.scene_ids
+        for sid, result in got.items():
+            assert result.steps[3:] == chosen[sid], (got.executor, sid)
+            assert result == reference[sid]
+
+
 def test_selection_by_glob_list_and_errors(store: GraphStore) -> None:
     _fill(store, [_support_scene(s, True) for s in ("scene0001_00", "scene0002_00", "other")])
     program = GraphQuery.parse(COUNTERFACTUAL)

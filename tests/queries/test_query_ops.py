@@ -168,6 +168,50 @@ def test_coalesce_takes_the_first_non_empty_input(executor: Executor) -> None:
         assert result.steps[1:6] == ((1,), (2, 3, 4), (7, 8), (), ())
 
 
+#: ``HEAD`` and an empty set (v4) for ``middle``.
+MIDDLE_HEAD = HEAD + 'v4 = filter_category(v0, "nothing")\n'
+MIDDLE_CASES = [
+    # an odd count: the middle one (towels by y: 3, 4, 2)
+    ("v5 = middle(v2, y)", (4,)),
+    # an even count: the two middle ones (x: 6, 7, 0, 9, 5, 8, 1, 2, 3, 4; 5 and 8 tie)
+    ("v5 = middle(v0, x)", (5, 8)),
+    ("v5 = middle(v3, height)", (7, 8)),
+    # one member: itself; none: none
+    ("v5 = middle(v1, z)", (1,)),
+    ("v5 = middle(v4, z)", ()),
+    # ties broken by id, in argmin's order: towels 2 and 3 tie at x = 2 (argmax's order
+    # would put 2 in the middle)
+    ("v5 = middle(v2, x)", (3,)),
+    ("v5 = middle(v0, z)", (1, 2)),  # z: 0, 9, 7, 8, then 1 to 6 tied
+    # a reference set: the sink is the only reference, so it is dropped; the rest by
+    # squared distance: 2, 3, 4, 5 (1), 0 (4.7225), 8, 9, 7, 6
+    ("v5 = middle(v0, v1, distance)", (0,)),
+    ("v5 = union(v1, v2)\nv6 = middle(v5, v1, distance)", (3,)),
+    ("v5 = middle(v1, v1, distance)", ()),
+    ("v5 = middle(v1, v4, distance)", ()),
+    # no reference set: to the scene centre
+    ("v5 = middle(v2, distance)", (3,)),
+    # from the centre looking at the sink (+x), right is -y: towel 4 between 2 and 3
+    ("v5 = middle(v2, rightward, viewpoint=(0.0, 0.0, 1.0)->(2.0, 0.0, 1.0))", (4,)),
+    # looking at (1, 2): towels 2, 3, 4 at 3, 5 and 6 to the right
+    ("v5 = middle(v2, rightward, viewpoint=(0.0, 0.0, 1.0)->(1.0, 2.0, 1.0))", (3,)),
+    # from behind the sink looking back (-x): ahead 4, then 1, 2, 3, then 5, 8, ...
+    ("v5 = middle(v0, forward, viewpoint=(4.0, 0.0, 1.0)->(2.0, 0.0, 1.0))", (5, 8)),
+    # read by later steps
+    ("v5 = middle(v0, x)\nv6 = count(v5)", 2),
+    ("v5 = middle(v0, v1, distance)\nv6 = relate(v0, v5, near)", ()),
+    ("v5 = middle(v2, y)\nv6 = argmin(v0, v5, distance, k=2)", (1, 2)),
+]
+
+
+def test_middle_keeps_the_middle_of_argmins_order(executor: Executor) -> None:
+    for body, expected in MIDDLE_CASES:
+        result = executor.run(GraphQuery.from_text(MIDDLE_HEAD + body))
+        assert result.answer == expected, f"{body}: {result.answer} != {expected}"
+        assert type(result.answer) is type(expected)
+        assert result.steps[1:5] == ((1,), (2, 3, 4), (7, 8), ())
+
+
 def test_results_carry_every_step_and_explain(executor: Executor) -> None:
     result = executor.run(GraphQuery.from_text(HEAD + "v4 = relate(v2, v1, left_of)"))
     assert result.steps == (tuple(range(10)), (1,), (2, 3, 4), (7, 8), (2,))

@@ -170,8 +170,9 @@ PROGRAMS = {
             {"op": "filter_category", "inputs": [0], "value": "table"},
             {"op": "support_closure", "inputs": [2]},
             {"op": "argmax", "inputs": [3, 2], "metric": "horizontal_distance"},
+            {"op": "middle", "inputs": [3, 2], "metric": "distance"},
             {"op": "relate_between", "inputs": [0, 2, 3]},
-            {"op": "exists", "inputs": [5]},
+            {"op": "exists", "inputs": [6]},
         ],
     },
 }

@@ -57,6 +57,32 @@ def test_round_trip_is_exact(program: GraphQuery) -> None:
     assert again.to_text() == text
 
 
+def test_middle_round_trips() -> None:
+    text = """query spatial
+v0 = scene()
+v1 = filter_category(v0, "sink")
+v2 = filter_category(v0, "towel")
+v3 = relate(v2, v1, near)
+v4 = middle(v3, rightward, viewpoint=(0.0, -1.5, 1.2)->(2.0, 1e-05, 0.8))
+v5 = middle(v2, v1, box_distance)
+v6 = middle(v2, metric=z)
+return v4"""
+    q = GraphQuery.from_text(text)
+    assert q.steps[4].to_dict() == {
+        "op": "middle",
+        "inputs": [3],
+        "metric": "rightward",
+        "viewpoint": {"eye": [0.0, -1.5, 1.2], "target": [2.0, 1e-05, 0.8]},
+    }
+    assert q.steps[5].to_dict() == {"op": "middle", "inputs": [2, 1], "metric": "box_distance"}
+    assert q.steps[6].to_dict() == {"op": "middle", "inputs": [2], "metric": "z"}
+    assert q.to_text() == text.replace("metric=z", "z")
+    assert GraphQuery.from_text(q.to_text()) == q
+    with pytest.raises(QueryValidationError) as info:
+        GraphQuery.from_text("query spatial\nv0 = scene()\nv1 = middle(v0, z, k=2)")
+    assert (info.value.step, info.value.field) == (1, "k")
+
+
 @settings(max_examples=200, deadline=None)
 @given(st.text(min_size=1, max_size=30).filter(lambda s: s.strip() and "\x00" not in s))
 def test_any_value_string_round_trips(value: str) -> None:

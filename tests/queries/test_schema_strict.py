@@ -12,7 +12,7 @@ import pytest
 from hypothesis import given, settings
 
 from graph_store.types import RelationType
-from queries import GraphQuery, QueryValidationError
+from queries import GraphQuery, Metric, QueryValidationError
 from queries.model import (
     MAX_K,
     MAX_SET_INPUTS,
@@ -209,8 +209,8 @@ def test_the_per_op_schema_passes_strict_mode_rules() -> None:
     strict = strict_schema(graph_query_schema_by_op())
     assert strict_schema_problems(strict) == []
     variants = strict["properties"]["steps"]["items"]["anyOf"]
-    # relate, argmin, argmax: with and without a viewpoint
-    assert len(variants) == len(OP_SPECS) + 3
+    # relate, argmin, argmax, middle: with and without a viewpoint
+    assert len(variants) == len(OP_SPECS) + 4
     for v in variants:
         fields = v["properties"]
         spec = OP_SPECS[fields["op"]["enum"][0]]
@@ -249,3 +249,40 @@ def test_the_per_op_schema_has_no_room_for_a_field_the_op_does_not_take() -> Non
     assert conforms_strict(doc, strict)
     doc["steps"][1] = {"op": "filter_category", "inputs": [], "value": "sink"}
     assert not conforms_strict(doc, strict)  # its one input is required
+
+
+def test_the_per_op_schema_takes_middle_without_k() -> None:
+    strict = strict_schema(graph_query_schema_by_op())
+    variants = [
+        v["properties"]
+        for v in strict["properties"]["steps"]["items"]["anyOf"]
+        if v["properties"]["op"]["enum"] == ["middle"]
+    ]
+    assert len(variants) == 2 and all("k" not in v for v in variants)
+    assert sorted(m for v in variants for m in v["metric"]["enum"]) == sorted(
+        m.value for m in Metric
+    )
+    steps = [
+        {"op": "scene", "inputs": []},
+        {"op": "filter_category", "inputs": [0], "value": "towel"},
+    ]
+    doc = {"query_type": "spatial", "steps": steps, "answer_step": 2}
+    plain = {"op": "middle", "inputs": [1, 0], "metric": "distance"}
+    seen = {
+        "op": "middle",
+        "inputs": [1],
+        "metric": "rightward",
+        "viewpoint": {"eye": [0.0, 0.0, 1.0], "target": [1.0, 0.0, 1.0]},
+    }
+    for step in (plain, seen):
+        doc["steps"] = [*steps, step]
+        assert conforms_strict(doc, strict), step
+        assert GraphQuery.parse(doc).steps[2].op.value == "middle"
+        doc["steps"] = [*steps, {**step, "k": 2}]
+        assert not conforms_strict(doc, strict)  # middle keeps no k
+        with pytest.raises(QueryValidationError, match="field 'k'"):
+            GraphQuery.parse(doc)
+    doc["steps"] = [*steps, {**plain, "viewpoint": seen["viewpoint"]}]
+    assert not conforms_strict(doc, strict)  # distance is not seen from a viewpoint
+    doc["steps"] = [*steps, {**plain, "inputs": [1, 0, 0]}]
+    assert not conforms_strict(doc, strict)  # at most two inputs
