@@ -4,7 +4,8 @@ Reads stage 2's :class:`~causalsplat.reason.ground.Grounded` instruction only.
 
 * A referring expression names one entity: the grounded categories, narrowed by the
   target's relations (:class:`~causalsplat.reason.topology.Planner`); when several
-  candidates are left, the one closest to the anchor of the last relation is taken
+  candidates are left (ranked whenever the program cannot tell that one is), the one
+  closest to the anchor of the last relation is taken
   (horizontally for ``above`` and ``below``: the one most directly over or under it), or,
   with no anchor, the one nearest in colour to the phrase's colour word (by the stored
   colours, when it names one), else the largest; the explanation says so.
@@ -23,6 +24,9 @@ Reads stage 2's :class:`~causalsplat.reason.ground.Grounded` instruction only.
   (``difference(scene, scene)``) and the explanation lists the closest candidates:
   a well-formed sentence is never an error.
 
+Nothing here runs the program: the alternatives are ``coalesce`` steps, and
+:meth:`Decision.explain` keeps the notes that hold on the executed program.
+
 The query type (stage 1's classification) follows from what the program does:
 ``counterfactual``; ``affordance`` (a need with a relation to an anchor);
 ``commonsense`` (a need alone); ``spatial`` (any relation or viewpoint); else
@@ -33,11 +37,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from causalsplat.reason._builder import SCENE, ProgramBuilder
+from causalsplat.reason._builder import SCENE, Because, Note, ProgramBuilder
 from causalsplat.reason.ground import Grounded, Grounding, is_named
 from causalsplat.reason.parse import Instruction
 from causalsplat.reason.topology import Planned, Planner
-from queries import GraphQuery, Metric, Op
+from queries import GraphQuery, Metric, Op, QueryResult
 
 
 @dataclass(frozen=True, slots=True)
@@ -45,7 +49,13 @@ class Decision:
     """The program stages 1-3 chose and the notes explaining it."""
 
     program: GraphQuery
-    notes: tuple[str, ...]
+    notes: tuple[Note, ...]
+
+    def explain(self, result: QueryResult) -> tuple[str, ...]:
+        """The notes that hold on the executed program ``result``."""
+        steps = result.steps
+        lines = (n.render(steps) for n in self.notes if n.holds(steps, self.program))
+        return tuple(dict.fromkeys(lines))
 
 
 #: How the explanation names what a tie-break metric measures to (other: "both anchors").
@@ -68,7 +78,7 @@ def decide(builder: ProgramBuilder, grounded: Grounded) -> Decision:
         answer, qtype = _need(builder, planner, grounded)
     else:
         answer, qtype = _referring(builder, planner, grounded)
-    return Decision(builder.program(answer, qtype), tuple(builder.notes))
+    return Decision(*builder.program(answer, qtype))
 
 
 def _nothing(b: ProgramBuilder) -> int:
@@ -106,7 +116,8 @@ def _need(b: ProgramBuilder, planner: Planner, grounded: Grounded) -> tuple[int,
         step = b.union([b.add(Op.FILTER_AFFORDANCE, SCENE, value=p) for p, _ in g.affordances])
     else:
         step = b.union([b.add(Op.FILTER_CATEGORY, SCENE, value=c) for c in g.chosen])
-    target = grounded.instruction.target
+    ins = grounded.instruction
+    target = ins.target
     related = False
     if target is not None:
         wider = [c.category for c in g.candidates[:3] if c.score >= g.candidates[0].score * 0.5]
@@ -117,21 +128,26 @@ def _need(b: ProgramBuilder, planner: Planner, grounded: Grounded) -> tuple[int,
             out = planner.relation(step, constraint, singular=False, selectors=False)
             if out is None:
                 continue
-            if b.size(out.step) == 0 and not g.affordances and len(wider) > len(g.chosen):
+            alternatives: list[tuple[int, Because]] = [(_closest_if_singular(b, ins, out), None)]
+            if not g.affordances and len(wider) > len(g.chosen):
                 base = b.union([b.add(Op.FILTER_CATEGORY, SCENE, value=c) for c in wider])
-                retry = planner.relation(base, constraint, singular=False, selectors=False)
-                if retry is not None and b.size(retry.step) > 0:
-                    b.note(f"none of {', '.join(g.chosen)} fits the relation; tried the top 3")
-                    out = retry
-            if b.size(out.step) == 0:
-                if _definite(grounded.instruction) and out.anchor not in (None, step):
-                    b.note(f"nothing fits the relation {constraint.kind!r}; took the closest")
-                    step = b.add(Op.ARGMIN, step, out.anchor, metric=b.distance_to(out.anchor))
-                    related = True
-                else:
-                    b.note(f"nothing fits the relation {constraint.kind!r}; it was not used")
-                continue
-            step, related = _closest_if_singular(b, grounded.instruction, out), True
+                with b.capture() as notes:
+                    retry = planner.relation(base, constraint, singular=False, selectors=False)
+                    if retry is not None:
+                        retried = _closest_if_singular(b, ins, retry)
+                if retry is not None:
+                    why = f"none of {', '.join(g.chosen)} fits the relation; tried the top 3"
+                    alternatives.append((retried, [*notes, why]))
+            if _definite(ins) and out.anchor not in (None, step):
+                assert out.anchor is not None
+                closest = b.add(Op.ARGMIN, step, out.anchor, metric=b.distance_to(out.anchor))
+                why = f"nothing fits the relation {constraint.kind!r}; took the closest"
+                alternatives.append((closest, why))
+            else:
+                alternatives.append(
+                    (step, f"nothing fits the relation {constraint.kind!r}; it was not used")
+                )
+            step, related = b.coalesce(*alternatives), True
     return step, ("affordance" if related else "commonsense")
 
 
@@ -150,8 +166,8 @@ def _definite(ins: Instruction) -> bool:
 def _closest_if_singular(b: ProgramBuilder, ins: Instruction, out: Planned) -> int:
     """ "hand me the thing ... next to the sink" (definite, singular): one entity, the
     closest to the anchor; "something to sit on near the table": every one that fits."""
-    if _definite(ins) and out.anchor is not None and b.size(out.step) > 1:
-        b.note(f"{b.size(out.step)} fit; took the one closest to the anchor")
+    if _definite(ins) and out.anchor is not None and not b.at_most_one(out.step):
+        b.note("{n} fit; took the one closest to the anchor", more=out.step)
         return b.add(Op.ARGMIN, out.step, out.anchor, metric=b.distance_to(out.anchor))
     return out.step
 
@@ -169,24 +185,35 @@ def _referring(b: ProgramBuilder, planner: Planner, grounded: Grounded) -> tuple
     planned = planner.plan(target, singular=singular, categories=None if g is None else g.chosen)
     assert planned is not None  # grounded categories, or any entity
     step = planned.step
-    if singular and b.size(step) > 1:
-        n = b.size(step)
+    if singular and not b.at_most_one(step):
         if planned.anchor is not None:
             anchor = planned.anchor
             metric = planned.measure or b.distance_to(anchor)
-            step = b.add(Op.ARGMIN, step, anchor, metric=metric)
             what = _CLOSEST_TO.get(metric, "both anchors")
-            b.note(f"{n} candidates fit; took the one closest to {what}")
+            b.note(f"{{n}} candidates fit; took the one closest to {what}", more=step)
+            # none measured (the anchor is the candidate itself): it stays
+            closest = b.add(Op.ARGMIN, step, anchor, metric=metric)
+            step = b.coalesce((closest, None), (step, None))
         else:
-            closest = planner.closest_in_colour(step, target.attributes)
-            if closest is not None:
-                step = closest
-                b.note(f"{n} candidates fit; took the one nearest in colour")
-            else:
-                step = b.add(Op.ARGMAX, step, metric=Metric.VOLUME)
-                b.note(f"{n} candidates fit; took the largest")
+            step = _closest_in_colour_or_largest(b, planner, step, planned, target.attributes)
     topological = bool(target.constraints) or ins.viewpoint is not None
     return _finish(b, ins, step), ("spatial" if topological else "intrinsic")
+
+
+def _closest_in_colour_or_largest(
+    b: ProgramBuilder, planner: Planner, step: int, planned: Planned, words: tuple[str, ...]
+) -> int:
+    """Of several candidates left for one, the one nearest in colour to the phrase's colour
+    word (by the stored colours of the phrase's candidates, nearest first), else the
+    largest."""
+    by_colour = planner.by_colour(step, planned, words)
+    largest = "{n} candidates fit; took the largest"
+    if not by_colour:
+        b.note(largest, more=step)
+        return b.add(Op.ARGMAX, step, metric=Metric.VOLUME)
+    nearest = Note("{n} candidates fit; took the one nearest in colour", more=step)
+    chosen = b.coalesce(*((s, nearest) for s in by_colour), (step, Note(largest, more=step)))
+    return b.add(Op.ARGMAX, chosen, metric=Metric.VOLUME)
 
 
 def _finish(b: ProgramBuilder, ins: Instruction, step: int) -> int:

@@ -173,7 +173,11 @@ class OfflineReasoner:
         grounded = self.ground(text, ctx)
         decision = decide(ProgramBuilder(ctx), grounded)
         result = ctx.run(decision.program)
-        lines = [f"read as: {_describe(grounded.instruction)}", *decision.notes, result.explain()]
+        lines = [
+            f"read as: {_describe(grounded.instruction)}",
+            *decision.explain(result),
+            result.explain(),
+        ]
         return make_answer(
             ctx,
             text,

@@ -178,6 +178,22 @@ def test_a_vivid_colour_contradicts_a_word_far_from_it(
     assert LEXICAL.answer(f"the {other} chair", ctx).entity_ids == (1,)
 
 
+def test_of_several_colour_words_one_the_scene_contradicts_is_left_out() -> None:
+    # "the green and blue chairs" where no chair is blue, "a blue-grey blanket" where the
+    # blanket is grey: the colour that fits is used, the other noted; when every colour
+    # word is contradicted, nothing fits
+    doc = _coloured(("chair", 0, (40, 150, 60)), ("chair", 1, (200, 200, 200)),
+                    ("table", 3, (120, 80, 50)), ("table", 6, (120, 80, 50)),
+                    ("blanket", 4, (128, 128, 128)))  # fmt: skip
+    ctx = SceneContext(objects_to_scene_graph(parse_objects(doc)))
+    answer = LEXICAL.answer("the table closest to the green and blue chairs", ctx)
+    assert answer.entity_ids == (3,) and not answer.nothing_fits
+    assert "nothing here is blue; the word was not used" in answer.explanation
+    assert LEXICAL.answer("the blue-grey blanket", ctx).entity_ids == (5,)
+    none = LEXICAL.answer("the table closest to the red and navy chairs", ctx)
+    assert none.entity_ids == () and none.nothing_fits
+
+
 @pytest.mark.shared_data
 def test_needs_on_scene0000(reasoner: OfflineReasoner) -> None:
     from causalsplat.bench._reasoning_referit import objects_document
