@@ -8,7 +8,8 @@ took that alternative, a step kept more than one), and :meth:`Note.holds` reads 
 the executed program's steps. :meth:`ProgramBuilder.program` keeps only the steps the
 answer depends on, renumbered.
 
-Nothing here runs a program: the builder has no executor to ask.
+Nothing here runs a program: the builder reads the scene's entities (through its
+context), never its executor.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ from typing import Any
 from causalsplat.reason.context import SceneContext
 from graph_store import RelationType
 from queries import GraphQuery, Metric, Op
-from queries.model import MAX_SET_INPUTS
+from queries.model import MAX_SET_INPUTS, MAX_STEPS
 
 SCENE = 0
 
@@ -30,6 +31,10 @@ _KEEPS_FIRST = frozenset({
     Op.FILTER_CATEGORY, Op.FILTER_ATTRIBUTE, Op.FILTER_AFFORDANCE, Op.RELATE,
     Op.RELATE_BETWEEN, Op.ARGMIN, Op.ARGMAX, Op.INTERSECT, Op.DIFFERENCE,
 })  # fmt: skip
+
+
+class ProgramTooLong(ValueError):
+    """The answer needs more steps than a program may have (``queries.model.MAX_STEPS``)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -244,7 +249,7 @@ class ProgramBuilder:
     def program(self, answer: int, query_type: str) -> tuple[GraphQuery, tuple[Note, ...]]:
         """The program of the steps ``answer`` depends on, renumbered in order, and the
         notes, their conditions renumbered (a note whose condition is on a step the
-        program leaves out is dropped)."""
+        program leaves out is dropped); :class:`ProgramTooLong` past ``MAX_STEPS``."""
         needed: set[int] = set()
         stack = [answer]
         while stack:
@@ -252,6 +257,8 @@ class ProgramBuilder:
             if i not in needed:
                 needed.add(i)
                 stack.extend(self.steps[i].get("inputs", []))
+        if len(needed) > MAX_STEPS:
+            raise ProgramTooLong(f"{len(needed)} steps; a program has at most {MAX_STEPS}")
         order = sorted(needed)
         new_index = {old: new for new, old in enumerate(order)}
         steps = []

@@ -35,9 +35,9 @@ The query type (stage 1's classification) follows from what the program does:
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
-from causalsplat.reason._builder import SCENE, Because, Note, ProgramBuilder
+from causalsplat.reason._builder import SCENE, Because, Note, ProgramBuilder, ProgramTooLong
 from causalsplat.reason.ground import Grounded, Grounding, is_named
 from causalsplat.reason.parse import Instruction
 from causalsplat.reason.topology import Planned, Planner
@@ -69,7 +69,29 @@ _CLOSEST_TO = {
 
 
 def decide(builder: ProgramBuilder, grounded: Grounded) -> Decision:
-    """Plan and decide (module docstring); never raises on a grounded instruction."""
+    """Plan and decide (module docstring); never raises on a grounded instruction. A
+    description with more relations than one program holds keeps the first ones (planned
+    again; the explanation says how many were left out)."""
+    try:
+        return _decide(builder, grounded)
+    except ProgramTooLong:
+        target = grounded.instruction.target
+        if target is None or not target.constraints:
+            raise
+    relations = target.constraints
+    for keep in range(len(relations) - 1, -1, -1):
+        ins = replace(grounded.instruction, target=replace(target, constraints=relations[:keep]))
+        b = ProgramBuilder(builder.ctx)
+        b.note(f"the last {len(relations) - keep} of its {len(relations)} relations were not"
+               " used: the program would be too long")  # fmt: skip
+        try:
+            return _decide(b, replace(grounded, instruction=ins))
+        except ProgramTooLong:
+            continue
+    raise AssertionError("a description without relations always fits")  # pragma: no cover
+
+
+def _decide(builder: ProgramBuilder, grounded: Grounded) -> Decision:
     ins = grounded.instruction
     planner = Planner(builder, ins, grounded.anchor_categories)
     if ins.kind == "counterfactual":

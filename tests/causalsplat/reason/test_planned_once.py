@@ -11,6 +11,7 @@ from causalsplat.reason._builder import Note, ProgramBuilder
 from causalsplat.reason.offline import OfflineReasoner
 from graph_store import SceneGraph
 from queries import Executor, GraphQuery, Op, QueryResult, make_executor
+from queries.model import MAX_STEPS
 
 LEXICAL = OfflineReasoner(embeddings=False)
 
@@ -146,3 +147,18 @@ def test_a_note_on_several_says_how_many(room: SceneContext) -> None:
     result = room.run(program)
     assert [n.render(result.steps) for n in notes if n.holds(result.steps, program)] == ["3 chairs"]
     assert Note("x", more=None).holds(result.steps, program)
+
+
+def test_more_relations_than_a_program_holds_keep_the_first(room: SceneContext) -> None:
+    # every relation brings its alternatives: past MAX_STEPS the last relations are left
+    # out (planned again, never run), and the explanation says so; never an error
+    places = ["near the table", "left of the door", "behind the couch", "next to the box",
+              "under the chair", "above the floor", "beside the couch", "close to the lamp",
+              "on the table", "under the lamp", "inside the box", "above the couch",
+              "below the door", "under the couch", "above the chair", "inside the table",
+              "left of the lamp", "on the box", "under the table", "near the door",
+              "right of the couch", "in front of the lamp", "behind the chair"]  # fmt: skip
+    answer = LEXICAL.answer("the cup " + ", ".join(places), room)
+    assert len(answer.entity_ids) == 1
+    assert len(answer.program.steps) <= MAX_STEPS
+    assert f"of its {len(places)} relations were not used" in answer.explanation
