@@ -35,6 +35,7 @@ The query type (stage 1's classification) follows from what the program does:
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass, replace
 
 from causalsplat.reason._builder import SCENE, Because, Note, ProgramBuilder, ProgramTooLong
@@ -70,25 +71,49 @@ _CLOSEST_TO = {
 
 def decide(builder: ProgramBuilder, grounded: Grounded) -> Decision:
     """Plan and decide (module docstring); never raises on a grounded instruction. A
-    description with more relations than one program holds keeps the first ones (planned
-    again; the explanation says how many were left out)."""
-    try:
-        return _decide(builder, grounded)
-    except ProgramTooLong:
-        target = grounded.instruction.target
-        if target is None or not target.constraints:
-            raise
-    relations = target.constraints
-    for keep in range(len(relations) - 1, -1, -1):
-        ins = replace(grounded.instruction, target=replace(target, constraints=relations[:keep]))
-        b = ProgramBuilder(builder.ctx)
-        b.note(f"the last {len(relations) - keep} of its {len(relations)} relations were not"
-               " used: the program would be too long")  # fmt: skip
+    description whose program would be longer than the language allows is planned again
+    with less of it (its last relations, then its appearance words; the explanation says
+    what was left out), and answered with nothing when even its bare kind is too much."""
+    for shorter, why in _shorter(grounded):
+        b = builder if why is None else ProgramBuilder(builder.ctx)
+        if why is not None:
+            b.note(why)
         try:
-            return _decide(b, replace(grounded, instruction=ins))
+            return _decide(b, shorter)
         except ProgramTooLong:
             continue
-    raise AssertionError("a description without relations always fits")  # pragma: no cover
+    b = ProgramBuilder(builder.ctx)
+    b.note("the description is too long for one program: nothing was selected")
+    return Decision(*b.program(_nothing(b), "intrinsic"))
+
+
+def _shorter(grounded: Grounded) -> Iterator[tuple[Grounded, str | None]]:
+    """``grounded`` as said, then with fewer of its target's relations, then without its
+    target's appearance words, each with the note that says what was left out."""
+    yield grounded, None
+    ins, target = grounded.instruction, grounded.instruction.target
+    if target is None:
+        return
+    relations = target.constraints
+    for keep in range(len(relations) - 1, -1, -1):
+        fewer = replace(ins, target=replace(target, constraints=relations[:keep]))
+        yield (
+            replace(grounded, instruction=fewer),
+            (
+                f"the last {len(relations) - keep} of its {len(relations)} relations were not"
+                " used: the program would be too long"
+            ),
+        )
+    words = target.attributes + target.not_attributes
+    if words:
+        bare = replace(target, constraints=(), attributes=(), not_attributes=())
+        yield (
+            replace(grounded, instruction=replace(ins, target=bare)),
+            (
+                f"its relations and the words {', '.join(words)} were not used: the program"
+                " would be too long"
+            ),
+        )
 
 
 def _decide(builder: ProgramBuilder, grounded: Grounded) -> Decision:

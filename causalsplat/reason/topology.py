@@ -383,7 +383,18 @@ class Planner:
         return self._keep_colours(step, [known[i] for i in keep])
 
     def _keep_colours(self, step: int, colours: list[tuple[float, float, float]]) -> int:
+        """Those of ``step`` of the stored ``colours``: one filter per colour kept, or, when
+        every candidate stores one and fewer are dropped, the candidates less one filter per
+        colour dropped (18 of 28 chairs are 10 steps, not 18)."""
         values = sorted({rgb_to_hex(c) for c in colours})
+        ids = self.ids[step]
+        known = self._colours(ids)
+        others = sorted({rgb_to_hex(rgb) for rgb in known.values()} - set(values))
+        if len(known) == len(ids) and 0 < len(others) < len(values):
+            dropped = self._union([self._filter(step, "rgb", v) for v in others])
+            out = self.b.add(Op.DIFFERENCE, step, dropped)
+            self.ids[out] = tuple(i for i in ids if i not in self.ids[dropped])
+            return out
         return self._union([self._filter(step, "rgb", v) for v in values])
 
     def by_colour(self, step: int, planned: Planned, words: tuple[str, ...]) -> list[int]:
