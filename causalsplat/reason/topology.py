@@ -61,7 +61,7 @@ from causalsplat.reason.parse import Constraint, Instruction, NounPhrase
 from graph_store import Entity, RelationType
 from queries import Metric, Op
 from queries.model import MIN_VIEW_DISTANCE
-from queries.semantics import normalise_text
+from queries.semantics import attribute_filter, normalise_text
 
 #: Candidates whose colour is within this (weighted Delta E) of the one nearest to a colour
 #: word are kept with it: one measured colour never singles out an object on its own.
@@ -229,8 +229,9 @@ class Planner:
     def _filter(self, step: int, key: str, value: str) -> int:
         """``filter_attribute`` of ``step``, with the entities it keeps (the language's rule:
         normalised key and value)."""
-        out = self.b.add(Op.FILTER_ATTRIBUTE, step, value=f"{key}={value}")
-        k, v = normalise_text(key), normalise_text(value)
+        text = f"{key}={value}"
+        out = self.b.add(Op.FILTER_ATTRIBUTE, step, value=text)
+        k, v = attribute_filter(Op.FILTER_ATTRIBUTE.value, text, self.ctx.config)
         self.ids[out] = self._where(
             lambda e: any(normalise_text(a.key) == k and normalise_text(a.value) == v
                           for a in e.attributes), self.ids[step])  # fmt: skip

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -137,6 +138,20 @@ def test_counterfactual_paths_are_per_scene(store: GraphStore) -> None:
         assert got[g.scene_id] == NetworkxExecutor(g).run(COUNTERFACTUAL)
 
 
+def _every_path(
+    store: GraphStore, program: dict[str, Any], sql_scenes: list[str], sparql_scenes: list[str]
+) -> list[MultiSceneResult]:
+    """``program`` over all scenes on SQL, SPARQL (Oxigraph and rdflib) and networkx, and
+    over the given subsets on SQL and SPARQL."""
+    runs = [run_program_all(store, program, executor=e) for e in ("sql", "sparql", "networkx")]
+    return [
+        *runs,
+        run_program_all(store, program, executor="sparql", sparql_backend="rdflib"),
+        run_program_all(store, program, scenes=sql_scenes, executor="sql"),
+        run_program_all(store, program, scenes=sparql_scenes, executor="sparql"),
+    ]
+
+
 COALESCE = {
     "query_type": "spatial",
     "steps": [
@@ -158,12 +173,7 @@ def test_coalesce_chooses_per_scene(store: GraphStore) -> None:
     non-empty input, on every executor, with and without a scene filter."""
     graphs = [_support_scene("s1", True), _support_scene("s2", False), _support_scene("s3", True)]
     _fill(store, graphs)
-    runs = [run_program_all(store, COALESCE, executor=e) for e in ("sql", "sparql", "networkx")]
-    runs += [
-        run_program_all(store, COALESCE, executor="sparql", sparql_backend="rdflib"),
-        run_program_all(store, COALESCE, scenes=["s1", "s2"], executor="sql"),
-        run_program_all(store, COALESCE, scenes=["s2", "s3"], executor="sparql"),
-    ]
+    runs = _every_path(store, COALESCE, ["s1", "s2"], ["s2", "s3"])
     reference = {g.scene_id: NetworkxExecutor(g).run(COALESCE) for g in graphs}
     # steps 4 to 7: coalesce(cup, table), coalesce(cup, spoon), coalesce(spoon, cup, table)
     chosen = {"s1": ((3,), (3,), (4,), 1), "s2": ((2,), (), (2,), 1)}
@@ -213,12 +223,7 @@ def test_middle_chooses_per_scene(store: GraphStore) -> None:
         _cups("s4", (2.0, 2.0, 2.0)),  # a tie: by id
     ]
     _fill(store, graphs)
-    runs = [run_program_all(store, MIDDLE, executor=e) for e in ("sql", "sparql", "networkx")]
-    runs += [
-        run_program_all(store, MIDDLE, executor="sparql", sparql_backend="rdflib"),
-        run_program_all(store, MIDDLE, scenes=["s1", "s2", "s4"], executor="sql"),
-        run_program_all(store, MIDDLE, scenes=["s2", "s3"], executor="sparql"),
-    ]
+    runs = _every_path(store, MIDDLE, ["s1", "s2", "s4"], ["s2", "s3"])
     reference = {g.scene_id: NetworkxExecutor(g).run(MIDDLE) for g in graphs}
     # steps 3 to 6: by x, by distance to the table, by rightward, the count of the first
     chosen = {
