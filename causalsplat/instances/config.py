@@ -55,7 +55,8 @@ class InstanceConfig:
             their vote, unseen ones stay unassigned).
         propagate_neighbors: neighbours per Gaussian in the surface graph.
         propagate_coplanar: weigh the graph's edges by how well the two Gaussians lie in
-            one plane (flat Gaussians only); ``False`` uses distance alone.
+            one plane: a flat Gaussian's own, or the plane its neighbours' centres make
+            (spheres, as a mesh's vertices become); ``False`` uses distance alone.
         propagate_feature_power: weigh the graph's edges by the agreement of the two
             Gaussians' features, ``max(0.1, f_i·f_j) ** p``; 0 turns it off. Set on the
             dev scenes: 1 raised scene0000_00's PQ from 0.678 to 0.701 (exact masks) and

@@ -9,8 +9,8 @@ import pytest
 import scipy.sparse as sp
 
 from causalsplat.field import FeatureField, FieldConfig, MaskEvidence
-from causalsplat.instances import InstanceConfig, assign_instances
-from causalsplat.instances.propagate import harmonic_labels, surface_graph
+from causalsplat.instances import InstanceConfig, assign_instances, propagate
+from causalsplat.instances.propagate import harmonic_labels, local_planes, surface_graph
 from causalsplat.io._geometry import quat_to_rotmat
 
 IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])  # wxyz: local axes = world axes
@@ -214,3 +214,51 @@ def test_feature_agreement_block_by_block_equals_all_at_once(
     monkeypatch.setattr(propagate, "EDGE_BLOCK", 7)
     blocks = propagate.feature_weighted(graph, features, 2.0, known)
     assert (whole != blocks).nnz == 0 and np.array_equal(whole.data, blocks.data)
+
+
+def _corner(spacing: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    """Spheres on a 7 x 7 floor (z = 0) and a 7 x 7 wall (x = 0, above the floor)."""
+    ticks = np.arange(7) * spacing
+    floor = np.array([[x, y, 0.0] for x in ticks[1:] for y in ticks])
+    wall = np.array([[0.0, y, z] for y in ticks for z in ticks])
+    return np.vstack([floor, wall]), np.full((len(floor) + len(wall), 3), 0.5 * spacing)
+
+
+def test_spheres_take_their_plane_from_their_neighbours() -> None:
+    means, scales = _corner()
+    normal, thin, flat = local_planes(means, scales, None)
+    mid_floor = int(np.flatnonzero((means == [3.0, 3.0, 0.0]).all(axis=1))[0])
+    mid_wall = int(np.flatnonzero((means == [0.0, 3.0, 3.0]).all(axis=1))[0])
+    np.testing.assert_allclose(np.abs(normal[mid_floor]), [0, 0, 1], atol=1e-12)
+    np.testing.assert_allclose(np.abs(normal[mid_wall]), [1, 0, 0], atol=1e-12)
+    # centres exactly in a plane: the thickness is the floor's, a quarter of the size
+    assert thin[mid_floor] == pytest.approx(0.25 * 0.5) and flat[mid_floor] == 1.0
+    # a floor sphere one step from the wall: its edge up the wall (sqrt 2 long) weighs
+    # e**-1 of its edge along the floor (1 long) by distance alone; the planes cut it down
+    graph = surface_graph(means, scales, None, k=8, radius=1.5).toarray()
+    plain = surface_graph(means, scales, None, k=8, radius=1.5, coplanar=False).toarray()
+    at = {tuple(p): i for i, p in enumerate(means.tolist())}
+    a, along, up = at[(1.0, 3.0, 0.0)], at[(2.0, 3.0, 0.0)], at[(0.0, 3.0, 1.0)]
+    assert plain[a, up] == pytest.approx(plain[a, along] * math.exp(-1.0), rel=1e-9)
+    assert graph[a, along] > 0.5 * plain[a, along]  # the corner tilts the floor's plane
+    assert 0 < graph[a, up] < 0.05 * plain[a, up]  # 0.82 and 0.03 of them
+
+
+def test_a_gaussians_own_plane_wins_when_it_is_flatter() -> None:
+    # discs lying in x-y planes stacked along z: their centres make a vertical line (no
+    # plane), their shape says z
+    means = np.array([[0.0, 0.0, 0.1 * i] for i in range(10)])
+    quats = np.tile(IDENTITY, (10, 1))
+    normal, thin, flat = local_planes(means, np.tile(DISC, (10, 1)), quats)
+    np.testing.assert_allclose(np.abs(normal), np.tile([0, 0, 1.0], (10, 1)), atol=1e-12)
+    assert thin.tolist() == [0.01] * 10 and flat.tolist() == [1.0] * 10
+
+
+def test_local_planes_in_blocks_equal_one_block(monkeypatch: pytest.MonkeyPatch) -> None:
+    rng = np.random.default_rng(3)
+    means = rng.uniform(0, 1, (500, 3)) * [1, 1, 0.05]
+    scales = rng.uniform(0.01, 0.03, (500, 3))
+    whole = local_planes(means, scales, None)
+    monkeypatch.setattr(propagate, "PLANE_BLOCK", 37)
+    for a, b in zip(whole, local_planes(means, scales, None), strict=True):
+        np.testing.assert_array_equal(a, b)
