@@ -23,11 +23,14 @@
    ``min_similarity`` (feature) or ``min_vote_share`` (vote); clusters that win
    fewer than ``min_gaussians`` Gaussians are dropped and their Gaussians re-assigned
    among the rest.
-4. Weakly seen Gaussians (evidence below ``min_evidence`` times the median: seen mostly
-   through an occluder, whose masks they vote for) and active Gaussians still unassigned
-   take their entity from the well-seen ones along the surface graph (edges at most
-   ``propagate_sigmas`` median scales long, weighted by the agreement of the two
-   Gaussians' features; see :mod:`causalsplat.instances.propagate`).
+4. On the surface graph (edges at most ``propagate_sigmas`` median scales long,
+   weighted by how well the two Gaussians lie in one plane and by the agreement of their
+   features; see :mod:`causalsplat.instances.propagate`), the well-seen Gaussians' votes
+   are first smoothed (``vote_smoothing``, :mod:`causalsplat.instances.smooth`: a patch
+   of wrong votes goes to the surface around it). Then weakly seen Gaussians (evidence
+   below ``min_evidence`` times the median: seen mostly through an occluder, whose masks
+   they vote for) and active Gaussians still unassigned take their entity from the
+   well-seen ones along the graph.
    Those the graph does not connect to any well-seen Gaussian (or connects by weights too
    small to carry a probability) keep their vote, or stay -1; pruned Gaussians stay -1.
 5. An entity whose Gaussians lie in pieces more than ``split_gap`` median Gaussian sizes
@@ -51,10 +54,12 @@ from causalsplat.errors import MissingDependencyError
 from causalsplat.field.types import FeatureField, MaskEvidence
 from causalsplat.field.weights import normalize_rows
 from causalsplat.instances._ids import by_first_appearance
+from causalsplat.instances._sparse import csr_row_argmax
 from causalsplat.instances.config import InstanceConfig
 from causalsplat.instances.consensus import joined_clusters, overlaps
 from causalsplat.instances.pieces import split_pieces
 from causalsplat.instances.propagate import feature_weighted, harmonic_labels, surface_graph
+from causalsplat.instances.smooth import smoothed_labels
 from causalsplat.instances.structures import cluster_labels, structure_pairs
 
 #: A piece of an entity must hold this share of its Gaussians to become an entity of its
@@ -204,7 +209,10 @@ def assign_instances(
     remap[kept] = np.arange(kept.size)
     labels = remap[labels]
     voted = labels
-    labels = _propagate(voted, field, evidence, means, scales, quats, config)
+    shares = None
+    if config.assignment == "vote" and config.vote_smoothing > 0:
+        shares = _shares(field.n, scores, rows, kept)
+    labels = _propagate(voted, field, evidence, means, scales, quats, config, shares)
     score = np.where((labels >= 0) & (labels == voted), score, 0.0)
     mask_entity = remap[cluster]
     centers = centers[kept]
@@ -324,34 +332,13 @@ def _best_of(scores: np.ndarray | sp.csr_matrix, share: bool) -> tuple[np.ndarra
             inv = np.divide(1.0, total, out=np.zeros_like(total), where=total > 0)
             sub = sp.csr_matrix(sp.diags(inv) @ sub)
         sub.sort_indices()
-        return _csr_row_argmax(sub)
+        return csr_row_argmax(sub)
     dense = np.asarray(scores)
     if share:
         total = dense.sum(axis=1, keepdims=True)
         dense = np.divide(dense, total, out=np.zeros_like(dense), where=total > 0)
     best = dense.argmax(axis=1)
     return best, dense[np.arange(dense.shape[0]), best]
-
-
-def _csr_row_argmax(m: sp.csr_matrix) -> tuple[np.ndarray, np.ndarray]:
-    """Per row of a non-negative CSR matrix with sorted indices: the first column of its
-    largest value and that value (column 0 and 0.0 for a row of zeros), as the dense
-    ``argmax`` gives; scipy's own loops over the rows in Python."""
-    n = m.shape[0]
-    best = np.zeros(n, dtype=np.int64)
-    value = np.zeros(n, dtype=np.float64)
-    lengths = np.diff(m.indptr)
-    filled = np.flatnonzero(lengths > 0)
-    if filled.size == 0:
-        return best, value
-    starts = m.indptr[:-1][filled]
-    value[filled] = np.maximum.reduceat(m.data, starts)
-    at_max = m.data == np.repeat(value, lengths)
-    position = np.where(at_max, np.arange(m.data.shape[0]), m.data.shape[0])
-    first = np.minimum.reduceat(position, starts)
-    best[filled] = m.indices[first]
-    best[value <= 0] = 0  # every entry of the row is 0
-    return best, value
 
 
 def _assign(
@@ -386,6 +373,21 @@ def _assign(
     return labels, sim, kept
 
 
+def _shares(
+    n: int, scores: np.ndarray | sp.csr_matrix, rows: np.ndarray, kept: np.ndarray
+) -> sp.csr_matrix:
+    """(n, len(kept)) each Gaussian's vote shares over the kept clusters (rows summing
+    to 1, or 0 for a Gaussian without a vote; ``scores`` (S, K) non-negative votes of the
+    Gaussians ``rows``)."""
+    sub = sp.csr_matrix(scores)[:, kept]
+    total = np.asarray(sub.sum(axis=1)).ravel()
+    inv = np.divide(1.0, total, out=np.zeros_like(total), where=total > 0)
+    sub = sp.csr_matrix(sp.diags(inv) @ sub)
+    place = sp.csr_matrix((np.ones(rows.size), (rows, np.arange(rows.size))),
+                          shape=(n, rows.size))  # fmt: skip
+    return sp.csr_matrix(place @ sub)
+
+
 def _propagate(
     labels: np.ndarray,
     field: FeatureField,
@@ -394,8 +396,11 @@ def _propagate(
     scales: np.ndarray,
     quats: np.ndarray | None,
     config: InstanceConfig,
+    shares: sp.csr_matrix | None = None,
 ) -> np.ndarray:
-    """Weakly seen and unassigned active Gaussians take labels along surfaces (step 4)."""
+    """The well-seen Gaussians' votes smoothed along surfaces (with ``shares``, the
+    (N, K) vote shares), then weakly seen and unassigned active Gaussians take labels
+    along them (step 4)."""
     active = np.flatnonzero(field.active)
     if config.propagate_sigmas == 0 or active.size == 0 or not (labels >= 0).any():
         return labels
@@ -414,5 +419,11 @@ def _propagate(
         graph = feature_weighted(graph, field.features[active], config.propagate_feature_power,
                                  field.supervised[active])  # fmt: skip
     out = labels.copy()
-    out[active] = harmonic_labels(graph, labels[active], fixed)
+    if shares is not None and fixed.any():
+        well = np.flatnonzero(fixed)
+        median = float(np.median(seen[seen > 0]))
+        smoothed = smoothed_labels(graph[well][:, well], shares[active[well]],
+                                   seen[well] / median, config.vote_smoothing)  # fmt: skip
+        out[active[well]] = np.where(smoothed >= 0, smoothed, out[active[well]])
+    out[active] = harmonic_labels(graph, out[active], fixed)
     return out

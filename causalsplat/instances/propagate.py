@@ -257,7 +257,7 @@ def harmonic_labels(graph: sp.spmatrix, labels: np.ndarray, fixed: np.ndarray) -
     known = np.flatnonzero(fixed)
     if free.size == 0 or known.size == 0:
         return out
-    rows = _edge_weights(graph)[free]
+    rows = edge_weights(graph)[free]
     w_ff = rows[:, free].tocsr()
     boundary = rows[:, known].tocsr()
     n_comp, comp = connected_components(w_ff, directed=False)
@@ -279,7 +279,7 @@ def harmonic_labels(graph: sp.spmatrix, labels: np.ndarray, fixed: np.ndarray) -
     return out
 
 
-def _edge_weights(graph: sp.spmatrix) -> sp.csr_matrix:
+def edge_weights(graph: sp.spmatrix) -> sp.csr_matrix:
     """``graph`` as float64 CSR without its non-edges (weights not finite and positive),
     scaled by a power of two (exactly) so that its largest weight lies in [0.5, 1): a
     graph of tiny or huge weights then neither underflows nor overflows in the solve."""

@@ -243,7 +243,7 @@ def test_sparse_votes_match_a_dense_vote_matrix(seed: int) -> None:
 @pytest.mark.parametrize("seed", range(6))
 def test_row_argmax_of_sparse_scores_is_the_dense_argmax(seed: int) -> None:
     """First column of the row maximum, ties, empty rows and rows of stored zeros included."""
-    from causalsplat.instances.assign import _csr_row_argmax
+    from causalsplat.instances._sparse import csr_row_argmax
 
     rng = np.random.default_rng(seed)
     dense = rng.integers(0, 4, (50, 9)).astype(np.float64) / 3.0  # many ties and zeros
@@ -253,6 +253,6 @@ def test_row_argmax_of_sparse_scores_is_the_dense_argmax(seed: int) -> None:
     m.data[m.indptr[zero_row] : m.indptr[zero_row + 1]] = 0.0  # a row of stored zeros
     dense[zero_row] = 0.0
     m.sort_indices()
-    best, value = _csr_row_argmax(m)
+    best, value = csr_row_argmax(m)
     np.testing.assert_array_equal(best, dense.argmax(axis=1))
     np.testing.assert_array_equal(value, dense.max(axis=1))

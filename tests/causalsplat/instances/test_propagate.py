@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -155,10 +156,16 @@ def test_floor_seen_through_a_table_goes_to_the_floor() -> None:
     dist = InstanceConfig(min_gaussians=1, propagate_coplanar=False)
     plain = assign_instances(field, evidence, dist, means=means, scales=scales, quats=quats)
     assert np.all(plain.labels[under] == plain.labels[-1])
-    # evidence above the floor fraction keeps the vote
-    keep = InstanceConfig(min_gaussians=1, min_evidence=0.01)
+    # evidence above the floor fraction keeps the vote, without smoothing; smoothed, the
+    # floor all around outvotes them (seen 0.02 times the median, they barely count)
+    keep = InstanceConfig(min_gaussians=1, min_evidence=0.01, vote_smoothing=0.0)
     kept = assign_instances(field, evidence, keep, means=means, scales=scales, quats=quats)
     assert np.all(kept.labels[under] == kept.labels[-1])
+    smoothed = assign_instances(field, evidence, replace(keep, vote_smoothing=10.0),
+                                means=means, scales=scales, quats=quats)  # fmt: skip
+    assert np.all(smoothed.labels[:64] == smoothed.labels[0])
+    assert np.all(smoothed.labels[64:] == smoothed.labels[-1])
+    assert smoothed.labels[-1] != smoothed.labels[0]
 
 
 def _hidden_side() -> tuple[FeatureField, MaskEvidence, np.ndarray, np.ndarray]:
