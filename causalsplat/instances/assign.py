@@ -409,7 +409,8 @@ def _propagate(
     if not np.isfinite(radius) or radius <= 0:
         return labels
     seen = np.asarray(evidence.gaussian_weight.sum(axis=0)).ravel()[active]
-    floor = config.min_evidence * float(np.median(seen[seen > 0])) if (seen > 0).any() else 0.0
+    median = float(np.median(seen[seen > 0])) if (seen > 0).any() else 0.0
+    floor = config.min_evidence * median
     fixed = (labels[active] >= 0) & (seen >= floor)
     graph = surface_graph(
         np.asarray(means)[active], sizes, None if quats is None else np.asarray(quats)[active],
@@ -421,9 +422,9 @@ def _propagate(
     out = labels.copy()
     if shares is not None and fixed.any():
         well = np.flatnonzero(fixed)
-        median = float(np.median(seen[seen > 0]))
         smoothed = smoothed_labels(graph[well][:, well], shares[active[well]],
-                                   seen[well] / median, config.vote_smoothing)  # fmt: skip
+                                   seen[well] / median if median > 0 else np.ones(well.size),
+                                   config.vote_smoothing)  # fmt: skip
         out[active[well]] = np.where(smoothed >= 0, smoothed, out[active[well]])
     out[active] = harmonic_labels(graph, out[active], fixed)
     return out

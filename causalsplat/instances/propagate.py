@@ -84,7 +84,8 @@ def surface_graph(
     kk = min(int(k), n - 1)
     if kk < 1 or not np.isfinite(radius) or radius <= 0:
         return sp.csr_matrix((n, n))
-    dist, nb = cKDTree(pts).query(pts, k=kk + 1, distance_upper_bound=radius)
+    tree = cKDTree(pts)
+    dist, nb = tree.query(pts, k=kk + 1, distance_upper_bound=radius)
     dist, nb = dist[:, 1:], nb[:, 1:]
     ok = np.isfinite(dist) & (nb != np.arange(n)[:, None])
     if not ok.any():
@@ -97,7 +98,7 @@ def surface_graph(
         s = float(radius)
     weight = np.exp(-((d / s) ** 2))
     if coplanar:
-        normal, thin, flat = local_planes(pts, np.asarray(scales, np.float64), quats)
+        normal, thin, flat = local_planes(pts, np.asarray(scales, np.float64), quats, tree=tree)
         weight *= np.exp(-0.5 * _plane_offsets(pts, normal, thin, flat, src, dst))
     graph = sp.csr_matrix((weight, (src, dst)), shape=(n, n))
     graph = graph.maximum(graph.T).tocsr()
@@ -168,7 +169,11 @@ PLANE_BLOCK = 1 << 17
 
 
 def local_planes(
-    means: np.ndarray, scales: np.ndarray, quats: np.ndarray | None
+    means: np.ndarray,
+    scales: np.ndarray,
+    quats: np.ndarray | None,
+    *,
+    tree: cKDTree | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Each Gaussian's plane: (N, 3) unit normal, (N,) thickness and (N,) flatness in
     [0, 1], ``clip(2 (1 - thickness / width), 0, 1)`` (module docstring, step 1).
@@ -177,7 +182,9 @@ def local_planes(
     thickness and width (none without ``quats``: a sphere). Its neighbours' plane is that
     of the principal axes of the :data:`PLANE_NEIGHBORS` nearest centres (standard
     deviations along them), the thickness at least :data:`MIN_THICKNESS` median sizes.
-    The flatter of the two is used.
+    The flatter of the two is used; a Gaussian already fully flat (a disc at most half as
+    thick as it is wide) keeps its own without its neighbours being looked up. ``tree``:
+    a ``cKDTree`` of ``means`` already built.
 
     >>> grid = np.array([[x, y, 0.0] for x in range(3) for y in range(3)])
     >>> normal, thin, flat = local_planes(grid, np.full((9, 3), 0.5), None)
@@ -200,17 +207,20 @@ def local_planes(
     size = float(np.median(sc.max(axis=1))) if n else 0.0
     if k < 3 or not (np.isfinite(size) and size > 0):
         return normal, thin, flat
-    tree = cKDTree(pts)
-    for a in range(0, n, PLANE_BLOCK):
-        b = min(a + PLANE_BLOCK, n)
-        _, nb = tree.query(pts[a:b], k=k)
+    open_ = np.flatnonzero(flat < 1.0)  # no neighbourhood is flatter than 1
+    if open_.size == 0:
+        return normal, thin, flat
+    search = tree if tree is not None else cKDTree(pts)
+    for a in range(0, open_.size, PLANE_BLOCK):
+        block = open_[a : a + PLANE_BLOCK]
+        _, nb = search.query(pts[block], k=k)
         centred = pts[nb] - pts[nb].mean(axis=1, keepdims=True)
         var, axes = np.linalg.eigh(np.einsum("nki,nkj->nij", centred, centred) / k)
         sd = np.sqrt(np.clip(var, 0.0, None))  # ascending
         their_thin = np.maximum(sd[:, 0], MIN_THICKNESS * size)
         their_flat = _flatness(their_thin, sd[:, 1])
-        use = their_flat > flat[a:b]
-        rows = np.flatnonzero(use) + a
+        use = their_flat > flat[block]
+        rows = block[use]
         normal[rows] = axes[use, :, 0]
         thin[rows], width[rows], flat[rows] = their_thin[use], sd[use, 1], their_flat[use]
     return normal, thin, flat
