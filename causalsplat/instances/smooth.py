@@ -21,14 +21,20 @@ small, keeps its vote (every Gaussian of it stops on a vote for it). Edges betwe
 are weak (the graph's feature agreement and planes), so one object's votes rarely cross
 into another's.
 
-The system is solved by Jacobi iterations, ``F <- (W F + Lambda Y) / (d + lambda)`` from
-``F = Y``, which contract by ``max d / (d + lambda) < 1`` per step; ``F`` is kept sparse
-(entries below :data:`PRUNE` dropped), so the memory grows with the votes a neighbourhood
-holds, not with Gaussians x clusters. They stop once no entry of ``F`` can be more than
-:data:`TOLERANCE` from the solution (a step that moves no entry more than
-``TOLERANCE (1 - rho) / rho``, ``rho`` the contraction), or after :data:`MAX_ITERATIONS`:
-the labels, not the probabilities, are the output, and a label whose walk ends on two
-clusters within a few hundredths of each other is a tie either way.
+The system ``F = M F + C`` (``M = (D + Lambda)^-1 W``, ``C = (D + Lambda)^-1 Lambda Y``)
+is solved by Jacobi iterations with Chebyshev acceleration (Golub and Van Loan, Matrix
+Computations, 11.2.8): ``M`` is similar to a symmetric matrix, so its eigenvalues are real
+and within ``[-rho, rho]``, ``rho = max d / (d + lambda) < 1`` its largest row sum, and
+``F_{k+1} = omega_{k+1} (M F_k + C) + (1 - omega_{k+1}) F_{k-1}`` with the Chebyshev
+weights ``omega`` takes about ``sqrt(1 / (1 - rho))`` steps where plain Jacobi takes
+``1 / (1 - rho)`` (on scene0000_00's Gaussians about 30 instead of 150). ``F`` is kept
+sparse (entries of magnitude below :data:`PRUNE` dropped), so the memory grows with the
+votes a neighbourhood holds, not with Gaussians x clusters. The iterations stop once no
+entry of ``F`` can be more than :data:`TOLERANCE` from the solution (the residual
+``M F + C - F`` at most ``TOLERANCE (1 - rho)`` everywhere, since the error is
+``(I - M)^-1`` times it), or after :data:`MAX_ITERATIONS`: the labels, not the
+probabilities, are the output, and a label whose walk ends on two clusters within a few
+hundredths of each other is a tie either way.
 :func:`smoothed_shares` is held to a direct float64 solve by the tests.
 """
 
@@ -43,15 +49,13 @@ from causalsplat.instances.propagate import edge_weights
 #: A Gaussian's confidence counts up to this (three times the median evidence): one seen
 #: very often still yields to a surface that votes otherwise all around it.
 CONFIDENCE_CAP = 3.0
-#: Entries of ``F`` below this are dropped after each iteration.
+#: Entries of ``F`` of magnitude below this are dropped after each iteration.
 PRUNE = 1e-6
 #: The largest error of ``F`` the iterations stop at (module docstring), unless they
-#: reach :data:`MAX_ITERATIONS` first (a contraction close to 1: nodes of tiny confidence,
-#: or a large ``smoothing``).
+#: reach :data:`MAX_ITERATIONS` first (a contraction very close to 1: nodes of tiny
+#: confidence, or a very large ``smoothing``).
 TOLERANCE = 1e-2
 MAX_ITERATIONS = 200
-#: Steps between two checks of the stopping rule.
-CHECK_EVERY = 4
 
 
 def smoothed_labels(
@@ -102,15 +106,20 @@ def smoothed_shares(
     prior = sp.csr_matrix(sp.diags(stop * inv) @ y)
     step = sp.csr_matrix(sp.diags(inv) @ weights)
     rho = float(np.max(degree * inv, initial=0.0))  # the contraction, < 1
-    enough = TOLERANCE * (1.0 - rho) / rho if rho > 0 else np.inf
-    f = y.copy()
-    for i in range(1, MAX_ITERATIONS + 1):
-        nxt = sp.csr_matrix(step @ f + prior)
-        nxt.data[nxt.data < PRUNE] = 0.0
+    enough = TOLERANCE * (1.0 - rho)
+    f, before = y.copy(), None
+    omega = 1.0
+    for _ in range(MAX_ITERATIONS):
+        jacobi = sp.csr_matrix(step @ f + prior)
+        residual = abs(jacobi - f)
+        if residual.nnz == 0 or residual.max() <= enough:
+            return jacobi
+        if before is None:  # the first step is Jacobi's
+            nxt, omega = jacobi, 2.0 / (2.0 - rho * rho)
+        else:
+            nxt = sp.csr_matrix(omega * jacobi + (1.0 - omega) * before)
+            omega = 1.0 / (1.0 - rho * rho * omega / 4.0)
+        nxt.data[np.abs(nxt.data) < PRUNE] = 0.0
         nxt.eliminate_zeros()
-        if i % CHECK_EVERY == 0:  # the check costs as much as a step
-            moved = abs(nxt - f)
-            if moved.nnz == 0 or moved.max() <= enough:
-                return nxt
-        f = nxt
+        before, f = f, nxt
     return f
