@@ -7,7 +7,10 @@ For entity ``k`` with Gaussians ``G_k`` (label ``k`` in the assignment):
   box up); ``centroid``: per axis, the mean of the centres inside that range (the trimmed
   mean, so the centroid always lies in the box); ``point_count``: ``|G_k|``;
 * ``category``: the label with the largest vote among the entity's masks, each mask
-  voting with its summed pixel weight times its score (1 when the masks have none);
+  voting with its summed pixel weight times its score (1 when the masks have none) times
+  its agreement, the share of its Gaussian weight on the entity's Gaussians (a fragment
+  of a door mask clustered with pieces of wall and floor names a piece of wall, not a
+  door: most of what it draws went to the door);
   ``confidence``: that label's share of the vote; masks without labels give the category
   ``"object"`` (a labeller, e.g. the VLM one, names it later);
 * attributes: the vote shares of every label (``label_vote``, source ``mask-vote``) and
@@ -119,15 +122,47 @@ def build_entities(
 def _label_votes(
     assignment: InstanceAssignment, evidence: MaskEvidence, masksets: Sequence[MaskSet]
 ) -> dict[int, dict[str, float]]:
+    """Per entity, label -> vote (module docstring); an entity none of whose masks
+    agrees with it (each drew only Gaussians that went elsewhere) is voted for by pixel
+    weight and score alone."""
     votes: dict[int, dict[str, float]] = defaultdict(lambda: defaultdict(float))
+    plain: dict[int, dict[str, float]] = defaultdict(lambda: defaultdict(float))
+    agree = mask_agreement(assignment, evidence)
     for row, k in enumerate(assignment.mask_entity.tolist()):
         ms = masksets[int(evidence.view[row])]
         if k < 0 or ms.labels is None:
             continue
         i = int(evidence.index[row])
-        score = 1.0 if ms.scores is None else float(ms.scores[i])
-        votes[k][ms.labels[i]] += float(evidence.pixel_weight[row]) * score
-    return {k: dict(v) for k, v in votes.items()}
+        vote = float(evidence.pixel_weight[row]) * (
+            1.0 if ms.scores is None else float(ms.scores[i])
+        )
+        plain[k][ms.labels[i]] += vote
+        votes[k][ms.labels[i]] += vote * float(agree[row])
+    return {k: dict(votes[k] if sum(votes[k].values()) > 0 else v) for k, v in plain.items()}
+
+
+def mask_agreement(assignment: InstanceAssignment, evidence: MaskEvidence) -> np.ndarray:
+    """(M,) each mask's share of its Gaussian weight (``evidence.gaussian_weight`` row) on
+    Gaussians labelled with the mask's entity; 0 for a mask without an entity or weight.
+
+    >>> import scipy.sparse as sp
+    >>> from causalsplat.instances.assign import InstanceAssignment
+    >>> a = InstanceAssignment(labels=np.array([0, 0, 1]), mask_entity=np.array([0, 1, -1]),
+    ...                        centers=np.zeros((2, 1), np.float32),
+    ...                        score=np.ones(3, np.float32), n_clusters=2, n_noise_masks=1)
+    >>> w = sp.csr_matrix(np.array([[1.0, 1.0, 2.0], [3.0, 0.0, 1.0], [1.0, 0.0, 0.0]]))
+    >>> ev = MaskEvidence(view=np.zeros(3, np.int64), index=np.arange(3), pixel_weight=np.ones(3),
+    ...                   features=np.zeros((3, 1), np.float32), gaussian_weight=w)
+    >>> mask_agreement(a, ev).tolist()
+    [0.5, 0.25, 0.0]
+    """
+    weight = evidence.gaussian_weight.tocoo()
+    entity = assignment.mask_entity[weight.row]
+    on = (entity >= 0) & (assignment.labels[weight.col] == entity)
+    m = evidence.n
+    total = np.bincount(weight.row, weights=weight.data, minlength=m)
+    inside = np.bincount(weight.row, weights=np.where(on, weight.data, 0.0), minlength=m)
+    return np.divide(inside, total, out=np.zeros(m), where=total > 0)
 
 
 def build_provenance(

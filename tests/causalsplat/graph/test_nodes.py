@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 import scipy.sparse as sp
@@ -9,7 +11,7 @@ import scipy.sparse as sp
 from causalsplat.colors import BASIC as PALETTE
 from causalsplat.colors import hex_to_rgb
 from causalsplat.field import MaskEvidence
-from causalsplat.graph.nodes import NodeConfig, build_entities, build_provenance
+from causalsplat.graph.nodes import NodeConfig, build_entities, build_provenance, mask_agreement
 from causalsplat.instances import InstanceAssignment
 from causalsplat.io.types import Camera, GaussianScene
 from causalsplat.masks import MaskSet
@@ -61,6 +63,33 @@ def test_entity_geometry_category_vote_and_colour() -> None:
     assert ("color", "blue", AttributeSource.GEOMETRY) in {
         (a.key, a.value, a.source) for a in chair.attributes
     }
+
+
+def test_a_mask_votes_for_the_category_by_its_share_on_the_entity() -> None:
+    # entity 1 holds a large "door" mask whose Gaussians all went to entity 0 (a fragment
+    # clustered with a piece of wall), and a small "wall" mask drawing entity 1's own
+    scene, assignment, evidence, masksets = _fixture()
+    weight = np.zeros((4, 6))
+    weight[0, :3] = 1.0  # mask 0 (cup, entity 0) on entity 0
+    weight[1, :3] = 1.0  # mask 1 (entity 1) on entity 0's Gaussians only
+    weight[2, 3:5] = 1.0  # mask 2 (entity 0) on entity 1's Gaussians only
+    weight[3, 3:5] = 1.0
+    evidence = replace(evidence, gaussian_weight=sp.csr_matrix(weight),
+                       pixel_weight=np.array([1.0, 100.0, 100.0, 1.0]))  # fmt: skip
+    assignment = replace(assignment, mask_entity=np.array([0, 1, 0, 1]))
+    masksets = [
+        MaskSet("a", masksets[0].masks, labels=("cup", "door")),
+        MaskSet("b", masksets[1].masks, labels=("mug", "x", "wall")),
+    ]
+    np.testing.assert_allclose(mask_agreement(assignment, evidence), [1.0, 0.0, 0.0, 1.0])
+    cup, wall = build_entities(scene, assignment, evidence, masksets)
+    assert (cup.category, cup.confidence) == ("cup", 1.0)
+    assert (wall.category, wall.confidence) == ("wall", 1.0)
+    # no mask agrees with its entity: the votes by pixel weight alone
+    evidence = replace(evidence, gaussian_weight=sp.csr_matrix((4, 6)))
+    cup, door = build_entities(scene, assignment, evidence, masksets)
+    assert door.category == "door" and door.confidence == pytest.approx(100 / 101)
+    assert cup.category == "mug"
 
 
 def test_unlabelled_masks_give_the_generic_category() -> None:
