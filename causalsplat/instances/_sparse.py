@@ -30,3 +30,16 @@ def csr_row_argmax(m: sp.csr_matrix) -> tuple[np.ndarray, np.ndarray]:
     best[filled] = m.indices[first]
     best[value <= 0] = 0  # every entry of the row is 0
     return best, value
+
+
+def csr_row_shares(m: sp.spmatrix) -> sp.csr_matrix:
+    """A non-negative sparse matrix with each row divided by its sum (a row of zeros stays
+    zero), as CSR.
+
+    >>> csr_row_shares(sp.csr_matrix(np.array([[1.0, 3.0], [0.0, 0.0]]))).toarray().tolist()
+    [[0.25, 0.75], [0.0, 0.0]]
+    """
+    m = sp.csr_matrix(m)
+    total = np.asarray(m.sum(axis=1), dtype=np.float64).ravel()
+    inv = np.divide(1.0, total, out=np.zeros_like(total), where=total > 0)
+    return sp.csr_matrix(sp.diags(inv) @ m)

@@ -54,7 +54,7 @@ from causalsplat.errors import MissingDependencyError
 from causalsplat.field.types import FeatureField, MaskEvidence
 from causalsplat.field.weights import normalize_rows
 from causalsplat.instances._ids import by_first_appearance
-from causalsplat.instances._sparse import csr_row_argmax
+from causalsplat.instances._sparse import csr_row_argmax, csr_row_shares
 from causalsplat.instances.config import InstanceConfig
 from causalsplat.instances.consensus import joined_clusters, overlaps
 from causalsplat.instances.pieces import split_pieces
@@ -326,11 +326,7 @@ def _best_of(scores: np.ndarray | sp.csr_matrix, share: bool) -> tuple[np.ndarra
     """Per row: the column of the highest score (first on ties) and that score, after
     dividing each row by its sum when ``share``. Scores are non-negative when sparse."""
     if sp.issparse(scores):
-        sub = sp.csr_matrix(scores)
-        if share:
-            total = np.asarray(sub.sum(axis=1)).ravel()
-            inv = np.divide(1.0, total, out=np.zeros_like(total), where=total > 0)
-            sub = sp.csr_matrix(sp.diags(inv) @ sub)
+        sub = csr_row_shares(scores) if share else sp.csr_matrix(scores)
         sub.sort_indices()
         return csr_row_argmax(sub)
     dense = np.asarray(scores)
@@ -379,10 +375,7 @@ def _shares(
     """(n, len(kept)) each Gaussian's vote shares over the kept clusters (rows summing
     to 1, or 0 for a Gaussian without a vote; ``scores`` (S, K) non-negative votes of the
     Gaussians ``rows``)."""
-    sub = sp.csr_matrix(scores)[:, kept]
-    total = np.asarray(sub.sum(axis=1)).ravel()
-    inv = np.divide(1.0, total, out=np.zeros_like(total), where=total > 0)
-    sub = sp.csr_matrix(sp.diags(inv) @ sub)
+    sub = csr_row_shares(sp.csr_matrix(scores)[:, kept])
     place = sp.csr_matrix((np.ones(rows.size), (rows, np.arange(rows.size))),
                           shape=(n, rows.size))  # fmt: skip
     return sp.csr_matrix(place @ sub)
