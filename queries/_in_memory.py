@@ -30,6 +30,7 @@ from queries.semantics import (
     normalise_text,
     rank_texts,
     reference_distance,
+    segment_distance,
     support_paths,
     view_consts,
     view_relation,
@@ -168,10 +169,22 @@ class InMemoryExecutor(Executor):
         assert metric is not None
         sign = -1.0 if step.op is Op.ARGMAX else 1.0
         keyed: list[tuple[float, int]] = []
-        reference = [(a, self._entity(a)) for a in ins[1]] if len(ins) == 2 else []
+        reference = [(a, self._entity(a)) for a in ins[1]] if len(ins) >= 2 else []
+        far = [(b, self._entity(b)) for b in ins[2]] if len(ins) == 3 else []
         for x in ins[0]:
             e = self._entity(x)
-            if not metric.is_distance:
+            if metric.is_segment:
+                ends = [
+                    segment_distance(PY, _xy(e.centroid), _xy(ra.centroid), _xy(rb.centroid))
+                    for a, ra in reference
+                    if a != x
+                    for b, rb in far
+                    if b not in (x, a)
+                ]
+                if not ends:
+                    continue
+                value = min(ends)
+            elif not metric.is_distance:
                 value = metric_value(
                     PY,
                     metric.value,

@@ -75,6 +75,9 @@ class SparqlAlgebra(Algebra[str, str]):
     def mul(self, a: str, b: str) -> str:
         return f"({a} * {b})"
 
+    def div(self, a: str, b: str) -> str:
+        return f"({a} / {b})"
+
     def neg(self, a: str) -> str:
         return f"(-{a})"
 

@@ -47,6 +47,7 @@ from queries.semantics import (
     metric_value,
     rank_texts,
     reference_distance,
+    segment_distance,
     view_consts,
     view_relation,
 )
@@ -295,7 +296,19 @@ class SqlManySteps:
         s = E.alias("s")
         centroid = (s.c.cx, s.c.cy, s.c.cz)
         base = [self.members(s.c.scene_id, s.c.id, *inputs[0])]
-        if not metric.is_distance:
+        if metric.is_segment:
+            a, b = E.alias("a"), E.alias("b")
+            d = segment_distance(SQL, (s.c.cx, s.c.cy), (a.c.cx, a.c.cy), (b.c.cx, b.c.cy))
+            distinct = [a.c.id != s.c.id, b.c.id != s.c.id, b.c.id != a.c.id]
+            keyed = (
+                sa.select(s.c.scene_id, s.c.id, sa.func.min(d).label("v"))
+                .where(*base, a.c.scene_id == s.c.scene_id, b.c.scene_id == s.c.scene_id)
+                .where(self.members(a.c.scene_id, a.c.id, *inputs[1]))
+                .where(self.members(b.c.scene_id, b.c.id, *inputs[2]))
+                .where(*distinct)
+                .group_by(s.c.scene_id, s.c.id)
+            )
+        elif not metric.is_distance:
             lo, hi = (s.c.min_x, s.c.min_y, s.c.min_z), (s.c.max_x, s.c.max_y, s.c.max_z)
             value = metric_value(
                 SQL, metric.value, centroid, lo, hi, view_consts(SQL, step.viewpoint)

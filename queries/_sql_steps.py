@@ -33,6 +33,7 @@ from queries.semantics import (
     metric_value,
     rank_texts,
     reference_distance,
+    segment_distance,
     view_consts,
     view_relation,
 )
@@ -72,6 +73,9 @@ class SqlAlgebra(Algebra[Num, Cond]):
 
     def mul(self, a: Num, b: Num) -> Num:
         return a * self._keep(b)
+
+    def div(self, a: Num, b: Num) -> Num:
+        return a / self._keep(b)
 
     def neg(self, a: Num) -> Num:
         return -self._keep(a)
@@ -368,7 +372,18 @@ class SqlSteps:
         s = self.entity("s")
         centroid = (s.c.cx, s.c.cy, s.c.cz)
         base = [s.c.scene_id == self.scene_id, self.members(s.c.id, *inputs[0])]
-        if not metric.is_distance:
+        if metric.is_segment:
+            a, b = self.entity("a"), self.entity("b")
+            d = segment_distance(SQL, (s.c.cx, s.c.cy), (a.c.cx, a.c.cy), (b.c.cx, b.c.cy))
+            distinct = [a.c.id != s.c.id, b.c.id != s.c.id, b.c.id != a.c.id]
+            keyed = (
+                sa.select(s.c.id, sa.func.min(d).label("v"))
+                .where(*base, a.c.scene_id == self.scene_id, b.c.scene_id == self.scene_id)
+                .where(self.members(a.c.id, *inputs[1]), self.members(b.c.id, *inputs[2]))
+                .where(*distinct)
+                .group_by(s.c.id)
+            )
+        elif not metric.is_distance:
             lo, hi = (s.c.min_x, s.c.min_y, s.c.min_z), (s.c.max_x, s.c.max_y, s.c.max_z)
             keyed = sa.select(
                 s.c.id,

@@ -4,9 +4,10 @@ Per step ``i``: its number of inputs fits its op; every input is an earlier step
 result is a set (``count`` / ``exists`` results are never inputs); the fields its op
 requires are set and every other field is absent or null; ``viewpoint`` only with a
 view-dependent relation; a second ``argmin`` / ``argmax`` / ``middle`` input only with
-a distance metric; ``value`` strings are usable (see :func:`check_value`). Program level:
-``answer_step`` names a step; an ``intrinsic`` program has no topological step
-(``relate``, ``relate_between``, ``support_closure``, ``fall_if_removed``).
+a distance metric, a third only (and always) with ``segment_distance``; ``value`` strings
+are usable (see :func:`check_value`). Program level: ``answer_step`` names a step; an
+``intrinsic`` program has no topological step (``relate``, ``relate_between``,
+``support_closure``, ``fall_if_removed``).
 """
 
 from __future__ import annotations
@@ -74,12 +75,22 @@ def _check_inputs(i: int, step: Step, steps: tuple[Step, ...]) -> None:
                 step=i,
                 field=f"inputs[{pos}]",
             )
-    if (
-        n == 2
-        and step.op.value in ("argmin", "argmax", "middle")
-        and step.metric is not None
-        and not step.metric.is_distance
-    ):
+    ranks = step.op.value in ("argmin", "argmax", "middle")
+    if ranks and step.metric is not None and step.metric.is_segment and n != 3:
+        raise QueryValidationError(
+            f"{step.metric.value!r} measures to segments between two reference sets:"
+            f" {step.op.value} takes 3 inputs (S, A, B) with it, got {n}",
+            step=i,
+            field="inputs",
+        )
+    if ranks and n == 3 and step.metric is not None and not step.metric.is_segment:
+        raise QueryValidationError(
+            "a third input (the far ends) is only used with metric 'segment_distance', not"
+            f" {step.metric.value!r}",
+            step=i,
+            field="inputs",
+        )
+    if n == 2 and ranks and step.metric is not None and not step.metric.is_distance:
         raise QueryValidationError(
             "a second input (the reference set) is only used with a distance metric ("
             + ", ".join(repr(m.value) for m in type(step.metric) if m.is_distance)

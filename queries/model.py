@@ -122,7 +122,11 @@ class Metric(StrEnum):
     (needs ``viewpoint``);
     ``forward``: how far ahead of the observer, along the line of sight, so ``argmin`` is
     the nearest ahead and ``argmax`` the farthest ("across the room from the door": the
-    observer at the door, looking into the room; needs ``viewpoint``).
+    observer at the door, looking into the room; needs ``viewpoint``);
+    ``segment_distance``: horizontal centroid distance to the nearest segment joining a
+    member of the second input to a member of the third (two distinct members, neither the
+    entity itself), so of the entities between a desk and a door ``argmin`` is the one most
+    squarely between them (needs both inputs; see :func:`~queries.semantics.segment_distance`).
     """
 
     DISTANCE = "distance"
@@ -138,11 +142,17 @@ class Metric(StrEnum):
     Y = "y"
     RIGHTWARD = "rightward"
     FORWARD = "forward"
+    SEGMENT_DISTANCE = "segment_distance"
 
     @property
     def is_seen_from(self) -> bool:
         """Ranks as an observer sees the entities: needs the step's ``viewpoint``."""
         return self in (Metric.RIGHTWARD, Metric.FORWARD)
+
+    @property
+    def is_segment(self) -> bool:
+        """Ranks by distance to segments between two reference sets: needs three inputs."""
+        return self is Metric.SEGMENT_DISTANCE
 
     @property
     def is_distance(self) -> bool:
@@ -212,24 +222,25 @@ OP_SPECS: dict[Op, OpSpec] = {
     ),
     Op.ARGMIN: OpSpec(
         1,
-        2,
+        3,
         ("metric",),
         ("k", "viewpoint"),
-        signature="argmin(S, [A], metric, k=1): the k smallest",
+        signature="argmin(S, [A, [B]], metric, k=1): the k smallest",
     ),
     Op.ARGMAX: OpSpec(
         1,
-        2,
+        3,
         ("metric",),
         ("k", "viewpoint"),
-        signature="argmax(S, [A], metric, k=1): the k largest",
+        signature="argmax(S, [A, [B]], metric, k=1): the k largest",
     ),
     Op.MIDDLE: OpSpec(
         1,
-        2,
+        3,
         ("metric",),
         ("viewpoint",),
-        signature="middle(S, [A], metric): the one in the middle by metric (two of an even count)",
+        signature="middle(S, [A, [B]], metric): the one in the middle by metric (two of an even"
+        " count)",
     ),
     Op.UNION: OpSpec(2, MAX_SET_INPUTS, signature="union(S1, S2, ...)"),
     Op.INTERSECT: OpSpec(2, MAX_SET_INPUTS, signature="intersect(S1, S2, ...)"),

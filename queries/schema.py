@@ -23,12 +23,13 @@ flat :func:`graph_query_schema` is unchanged.
 
 :func:`graph_query_schema_by_op` says what the flat schema cannot: a step is one of a list
 of per-op schemas (``anyOf``), each holding only the fields its op takes, with the op's
-arity as ``minItems`` / ``maxItems`` of ``inputs``; ``relate``, ``argmin``, ``argmax`` and
-``middle`` are two schemas each, and only the one whose relation (or metric, ``rightward`` or
-``forward``) is seen from a viewpoint has a ``viewpoint``. Under a grammar (llama.cpp,
-OpenAI's strict mode, both accept ``anyOf``) a model then cannot write a field its op does
-not use: a small model that fills every field it is offered otherwise writes a viewpoint of
-zeros on a ``filter_category`` step.
+arity as ``minItems`` / ``maxItems`` of ``inputs``; ``relate`` is two schemas, and only the
+one whose relation is seen from a viewpoint has a ``viewpoint``; ``argmin``, ``argmax`` and
+``middle`` are three: the metrics seen from a viewpoint (``rightward``, ``forward``: one
+input and a ``viewpoint``), ``segment_distance`` (three inputs) and the others (one or
+two). Under a grammar (llama.cpp, OpenAI's strict mode, both accept ``anyOf``) a model then
+cannot write a field its op does not use: a small model that fills every field it is
+offered otherwise writes a viewpoint of zeros on a ``filter_category`` step.
 """
 
 from __future__ import annotations
@@ -133,15 +134,19 @@ _SCHEMA = _build()
 
 
 def _step_schema(
-    op: Op, relations: list[RelationType] | None = None, metrics: list[Metric] | None = None
+    op: Op,
+    relations: list[RelationType] | None = None,
+    metrics: list[Metric] | None = None,
+    arity: tuple[int, int] | None = None,
 ) -> dict[str, Any]:
-    """One op's step: its own fields (the rest absent), its arity on ``inputs``; a
-    ``viewpoint`` only where ``relations`` / ``metrics`` are seen from one (required with
-    ``rightward`` and ``forward``)."""
+    """One op's step: its own fields (the rest absent), its arity on ``inputs`` (the op's,
+    or ``arity`` where the metrics take fewer or more); a ``viewpoint`` only where
+    ``relations`` / ``metrics`` are seen from one (required with ``rightward`` and
+    ``forward``)."""
     spec = OP_SPECS[op]
     shared = _SCHEMA["properties"]["steps"]["items"]["properties"]
     inputs = copy.deepcopy(shared["inputs"])
-    inputs["minItems"], inputs["maxItems"] = spec.min_inputs, spec.max_inputs
+    inputs["minItems"], inputs["maxItems"] = arity or (spec.min_inputs, spec.max_inputs)
     props: dict[str, Any] = {
         "op": {"type": "string", "enum": [op.value], "description": spec.signature},
         "inputs": inputs,
@@ -177,9 +182,12 @@ def _build_by_op() -> dict[str, Any]:
             variants.append(_step_schema(op, split))
             variants.append(_step_schema(op, [r for r in RelationType if r.is_view_dependent]))
         elif op in (Op.ARGMIN, Op.ARGMAX, Op.MIDDLE):
-            plain: list[Metric] = [m for m in Metric if not m.is_seen_from]
-            variants.append(_step_schema(op, metrics=plain))
-            variants.append(_step_schema(op, metrics=[m for m in Metric if m.is_seen_from]))
+            plain = [m for m in Metric if not (m.is_seen_from or m.is_segment)]
+            variants.append(_step_schema(op, metrics=plain, arity=(1, 2)))
+            seen = [m for m in Metric if m.is_seen_from]
+            variants.append(_step_schema(op, metrics=seen, arity=(1, 1)))
+            ends = [m for m in Metric if m.is_segment]
+            variants.append(_step_schema(op, metrics=ends, arity=(3, 3)))
         else:
             variants.append(_step_schema(op))
     schema = copy.deepcopy(_SCHEMA)

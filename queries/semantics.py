@@ -44,6 +44,10 @@ Geometry (world frame, scene units, ``z`` up; see :class:`Algebra`)
       ``w = s - a``, ``s`` is between when its projection falls strictly inside the segment
       (``0 < w·u < u·u``) and its distance from the line ``ab`` is at most
       ``between_lateral_ratio`` times ``|ab|`` (``|w × u| <= ratio * u·u``).
+    * ``segment_distance`` (:func:`segment_distance`), horizontal plane: ``argmin(S, A, B)``
+      ranks each member by its smallest squared distance to a segment from a member of
+      ``A`` to a member of ``B`` (the two distinct, neither the member itself); members
+      with no such pair are dropped.
     Every formula is written once against :class:`Algebra` and evaluated on Python floats
     (networkx), as SQL expressions, or as SPARQL expressions, with the same operations in the
     same order, so IEEE-754 doubles give the same answers everywhere.
@@ -197,7 +201,8 @@ class Algebra(ABC, Generic[N, B]):
     """The operations the geometric rules use; one subclass per executor.
 
     Formulas call these methods in a fixed order, so every backend performs the same
-    IEEE-754 operations (``+``, ``-``, ``*``, ``abs``, comparisons) on the same doubles.
+    IEEE-754 operations (``+``, ``-``, ``*``, ``/``, ``abs``, comparisons) on the same
+    doubles. A formula divides only by a value it has checked is not zero (``select``).
     """
 
     @abstractmethod
@@ -208,6 +213,8 @@ class Algebra(ABC, Generic[N, B]):
     def sub(self, a: N, b: N) -> N: ...
     @abstractmethod
     def mul(self, a: N, b: N) -> N: ...
+    @abstractmethod
+    def div(self, a: N, b: N) -> N: ...
     @abstractmethod
     def neg(self, a: N) -> N: ...
     @abstractmethod
@@ -241,6 +248,9 @@ class PyAlgebra(Algebra[float, bool]):
 
     def mul(self, a: float, b: float) -> float:
         return a * b
+
+    def div(self, a: float, b: float) -> float:
+        return a / b
 
     def neg(self, a: float) -> float:
         return -a
@@ -451,6 +461,31 @@ def between(alg: Algebra[N, B], s: tuple[N, N], a: tuple[N, N], b: tuple[N, N], 
     return alg.all(
         alg.gt(dot, zero), alg.lt(dot, l2), alg.le(alg.abs(cross), alg.mul(alg.const(ratio), l2))
     )
+
+
+def segment_distance(alg: Algebra[N, B], s: tuple[N, N], a: tuple[N, N], b: tuple[N, N]) -> N:
+    """The squared horizontal distance from ``s`` to the segment from ``a`` to ``b`` (x, y):
+    with ``u = b - a`` and ``w = s - a``, the nearest point is ``a + t u`` with
+    ``t = w·u / u·u`` clamped to ``[0, 1]`` (``t = 0`` when ``a`` and ``b`` coincide), and
+    the value is ``(w.x - t u.x)² + (w.y - t u.y)²``. For an entity between ``a`` and ``b``
+    (:func:`between`) it is its squared offset from the line ``ab``: the smallest is the
+    one most squarely between them ("the trash can between the desk and the door").
+
+    >>> [segment_distance(PY, p, (0.0, 0.0), (4.0, 0.0)) for p in ((1.0, 2.0), (6.0, 1.0))]
+    [4.0, 5.0]
+    >>> segment_distance(PY, (3.0, 4.0), (0.0, 0.0), (0.0, 0.0))  # the ends coincide
+    25.0
+    """
+    ux, uy = alg.sub(b[0], a[0]), alg.sub(b[1], a[1])
+    wx, wy = alg.sub(s[0], a[0]), alg.sub(s[1], a[1])
+    dot = alg.add(alg.mul(wx, ux), alg.mul(wy, uy))
+    l2 = alg.add(alg.mul(ux, ux), alg.mul(uy, uy))
+    zero, one = alg.const(0.0), alg.const(1.0)
+    some = alg.gt(l2, zero)  # divided by 1 where not (every engine evaluates both arms)
+    t = alg.select(some, alg.div(dot, alg.select(some, l2, one)), zero)
+    t = alg.select(alg.lt(t, zero), zero, alg.select(alg.gt(t, one), one, t))
+    dx, dy = alg.sub(wx, alg.mul(t, ux)), alg.sub(wy, alg.mul(t, uy))
+    return alg.add(alg.mul(dx, dx), alg.mul(dy, dy))
 
 
 # -- support -----------------------------------------------------------------------------

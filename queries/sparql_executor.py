@@ -54,6 +54,7 @@ from queries.semantics import (
     metric_value,
     rank_texts,
     reference_distance,
+    segment_distance,
     support_paths,
     view_consts,
     view_relation,
@@ -289,7 +290,20 @@ class _SparqlRun:
         metric = step.metric
         assert metric is not None
         centroid = ("?e_centroidX", "?e_centroidY", "?e_centroidZ")
-        if not metric.is_distance:
+        if metric.is_segment:
+            triples = (
+                self.located("e", 0, ins[0], "localId", *XY)
+                + self.located("a", 1, ins[1], *XY)
+                + self.located("b", 2, ins[2], *XY)
+            )
+            xy = [(f"?{v}_centroidX", f"?{v}_centroidY") for v in ("e", "a", "b")]
+            d = segment_distance(SPARQL, *xy)
+            keyed = (  # BOUND: see _match_text
+                f"{{ SELECT ?e ?e_localId (MIN({d}) AS ?v) WHERE {{\n{triples}"
+                "FILTER (?e != ?a && ?e != ?b && ?a != ?b)\n} GROUP BY ?e ?e_localId }\n"
+                "FILTER (BOUND(?e))\n"
+            )
+        elif not metric.is_distance:
             lo, hi = ("?e_minX", "?e_minY", "?e_minZ"), ("?e_maxX", "?e_maxY", "?e_maxZ")
             value = metric_value(
                 SPARQL, metric.value, centroid, lo, hi, view_consts(SPARQL, step.viewpoint)

@@ -233,7 +233,12 @@ def _referring(b: ProgramBuilder, planner: Planner, grounded: Grounded) -> tuple
     assert planned is not None  # grounded categories, or any entity
     step = planned.step
     if singular and not b.at_most_one(step):
-        if planned.anchor is not None:
+        if planned.ends is not None:
+            # "the trash can between the desk and the door": the one most squarely between
+            b.note("{n} candidates fit; took the one nearest the line between them", more=step)
+            ends = b.add(Op.ARGMIN, step, *planned.ends, metric=Metric.SEGMENT_DISTANCE)
+            step = b.coalesce((ends, None), (step, None))
+        elif planned.anchor is not None:
             anchor = planned.anchor
             metric = planned.measure or b.distance_to(anchor)
             what = _CLOSEST_TO.get(metric, "both anchors")

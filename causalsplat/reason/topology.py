@@ -129,11 +129,12 @@ _FOOTPRINT = {"end_of": Metric.END_DISTANCE, "corner_of": Metric.CORNER_DISTANCE
 class Planned:
     """A planned noun phrase: its step, and the anchor step of its last relation (used to
     break ties: the candidate closest to it, by ``measure`` where the relation says how,
-    else as :meth:`ProgramBuilder.distance_to` measures)."""
+    else as :meth:`ProgramBuilder.distance_to` measures; of a "between", the candidate
+    nearest the segments between its two ``ends``)."""
 
     step: int
     anchor: int | None = None
-    between: bool = False
+    ends: tuple[int, int] | None = None
     measure: Metric | None = None
     #: the phrase's candidates before relations (:meth:`Planner.candidates`)
     base: int | None = None
@@ -483,7 +484,7 @@ class Planner:
                 step, last = out.step, out
         step = self.place(step, np, base)
         step = self.modifiers(step, np, base)
-        return Planned(step, last.anchor, last.between, last.measure, base)
+        return Planned(step, last.anchor, last.ends, last.measure, base)
 
     def anchor(self, np: NounPhrase) -> int | None:
         contradicted = len(self.contradicted)
@@ -564,7 +565,8 @@ class Planner:
             if where is not None and math.dist(eye[:2], where[:2]) >= MIN_VIEW_DISTANCE:
                 self.b.note(f"far {_WORDS[c.kind]} it: the {c.kind[:-3]}most of them")
                 related = self.b.add(op, related, metric=Metric.RIGHTWARD, viewpoint=view)
-        return Planned(related, anchor, between=c.kind == "between", measure=measure)
+        ends = (a[0], a[-1]) if c.kind == "between" else None
+        return Planned(related, anchor, ends=ends, measure=measure)
 
     def _related(
         self, step: int, kind: str, a: list[int], *, singular: bool, selectors: bool, nth: int = 1

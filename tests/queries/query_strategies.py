@@ -111,7 +111,8 @@ def steps_for(draw: st.DrawFn, op: Op, sets: list[int]) -> dict[str, Any]:
     elif op in (Op.ARGMIN, Op.ARGMAX, Op.MIDDLE):
         metric = draw(st.sampled_from(list(Metric)))
         two = metric.is_distance and draw(st.booleans())
-        step.update(inputs=_refs(draw, sets, 2 if two else 1), metric=metric.value)
+        n = 3 if metric.is_segment else 2 if two else 1
+        step.update(inputs=_refs(draw, sets, n), metric=metric.value)
         if op is not Op.MIDDLE:
             step["k"] = draw(st.none() | st.integers(1, 4))
         if metric.is_seen_from:

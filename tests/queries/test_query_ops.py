@@ -392,6 +392,41 @@ def test_end_and_corner_distance_measure_to_the_footprint(make_any: MakeExecutor
         assert executor.run(GraphQuery.from_text(head + body)).answer == expected, body
 
 
+def test_segment_distance_ranks_by_the_line_between_two_ends(make_any: MakeExecutor) -> None:
+    """Two trash cans between a desk and a door: the one beside the door is nearer either
+    end, the one on the line between them is most squarely between; with two doors, the
+    nearest segment of any desk-door pair counts; an end is never measured to itself."""
+    ents = (
+        box(1, "desk", 0.0, 0.0, 0.4),
+        box(2, "door", 4.0, 0.0, 1.0),
+        box(10, "trash can", 3.6, 0.5, 0.2),  # beside the door: segment 0.25, door 0.41
+        box(11, "trash can", 2.0, 0.2, 0.2),  # on the way: segment 0.04, ends 4.04
+        box(12, "trash can", 6.0, 0.1, 0.2),  # past the door: segment 4.01 (to the door)
+        box(3, "door", 2.0, 3.0, 1.0),  # a second door; its segments pass far from 11
+    )
+    executor = make_any(SceneGraph(SceneMeta("ends"), ents))
+    head = 'query spatial\nv0 = scene()\nv1 = filter_category(v0, "desk")\n'
+    head += 'v2 = filter_category(v0, "door")\nv3 = filter_category(v0, "trash can")\n'
+    cases = [
+        ("v4 = union(v1, v2)\nv5 = argmin(v3, v4, distance)", (10,)),
+        ("v4 = argmin(v3, v1, v2, segment_distance)", (11,)),
+        ("v4 = argmin(v3, v2, v1, segment_distance)", (11,)),  # either way round
+        ("v4 = argmin(v3, v1, v2, segment_distance, k=2)", (10, 11)),
+        ("v4 = argmax(v3, v1, v2, segment_distance)", (12,)),
+        ("v4 = middle(v3, v1, v2, segment_distance)", (10,)),
+        # the two doors as both ends: the segment between them (10 lies 0.06 m off it),
+        # never a door to itself
+        ("v4 = argmin(v3, v2, v2, segment_distance)", (10,)),
+        # the candidates as ends: each is measured to segments between the others only
+        # (10 to 11-12: 0.116; 11 and 12 to segments ending at 10: 2.65, 5.92)
+        ("v4 = argmin(v3, v3, v3, segment_distance)", (10,)),
+        # one end and nothing at the other: no segment, nothing ranked
+        ('v4 = filter_category(v0, "sofa")\nv5 = argmin(v3, v1, v4, segment_distance)', ()),
+    ]
+    for body, expected in cases:
+        assert executor.run(GraphQuery.from_text(head + body)).answer == expected, body
+
+
 def test_horizontal_distance_ignores_height(make_any: MakeExecutor) -> None:
     """A lamp hung 5 m over the anchor is horizontally nearest; a cup beside it is nearest in 3D."""
     ents = (

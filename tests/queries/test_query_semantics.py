@@ -24,6 +24,7 @@ from queries.semantics import (
     normalise_text,
     rank_texts,
     reference_distance,
+    segment_distance,
     split_attribute,
     squared_distance,
     text_similarity,
@@ -259,6 +260,46 @@ def test_footprint_distances_agree_across_engines_and_with_exact_arithmetic(
     bound = sum(2 * abs(x) * delta + delta * delta for x in parts) + 8 * eps * exact
     assert abs(Fraction(got) - exact) <= bound + Fraction(2.3e-308)
     _engines_agree(metric, p, mid, lo, hi, got)
+
+
+def test_segment_distance_by_hand() -> None:
+    a, b = (0.0, 0.0), (4.0, 0.0)
+    cases = {(1.0, 2.0): 4.0, (2.0, -0.5): 0.25, (-3.0, 4.0): 25.0, (6.0, 1.0): 5.0}
+    assert {p: segment_distance(PY, p, a, b) for p in cases} == cases
+    assert segment_distance(PY, (1.0, 2.0), b, a) == 4.0  # either way round
+    assert segment_distance(PY, (3.0, 4.0), (1.0, 1.0), (1.0, 1.0)) == 13.0  # a point
+
+
+def _exact_segment_distance(
+    s: tuple[float, float], a: tuple[float, float], b: tuple[float, float]
+) -> Fraction:
+    u = [Fraction(q) - Fraction(p) for p, q in zip(a, b, strict=True)]
+    w = [Fraction(q) - Fraction(p) for p, q in zip(a, s, strict=True)]
+    l2 = u[0] * u[0] + u[1] * u[1]
+    t = min(max((w[0] * u[0] + w[1] * u[1]) / l2, Fraction(0)), Fraction(1)) if l2 else 0
+    return (w[0] - t * u[0]) ** 2 + (w[1] - t * u[1]) ** 2
+
+
+@settings(max_examples=60, deadline=None)
+@given(xy, xy, xy)
+def test_segment_distance_agrees_across_engines_and_with_exact_arithmetic(
+    s: tuple[float, float], a: tuple[float, float], b: tuple[float, float]
+) -> None:
+    got = segment_distance(PY, s, a, b)
+    exact = _exact_segment_distance(s, a, b)
+    # each offset from the nearest point is a few roundings of numbers up to m in size
+    # (t's own rounding moves the point by at most a few ulps of |w|); where |b - a|^2
+    # underflows (|b - a| < 1.5e-154) t is off by up to 1, which moves the point by at most
+    # |b - a|; squares of tiny offsets underflow
+    eps = Fraction(1, 2**52)
+    m = max(Fraction(abs(v)) for v in (*s, *a, *b))
+    delta = 32 * eps * m + Fraction(4e-154)
+    offsets = exact**0.5  # a float bound is enough for the slack term
+    bound = 2 * 2 * Fraction(offsets) * delta + 2 * delta * delta + 8 * eps * exact
+    assert abs(Fraction(got) - exact) <= bound + Fraction(2.3e-308)
+    assert _sqlite(segment_distance(SQL, _q(s), _q(a), _q(b))) == got
+    ox_d, rd_d = _sparql(segment_distance(SPARQL, _c(s), _c(a), _c(b)))
+    assert float(str(ox_d)) == got and rd_d == got
 
 
 @settings(max_examples=100, deadline=None)

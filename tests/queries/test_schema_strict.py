@@ -209,13 +209,20 @@ def test_the_per_op_schema_passes_strict_mode_rules() -> None:
     strict = strict_schema(graph_query_schema_by_op())
     assert strict_schema_problems(strict) == []
     variants = strict["properties"]["steps"]["items"]["anyOf"]
-    # relate, argmin, argmax, middle: with and without a viewpoint
-    assert len(variants) == len(OP_SPECS) + 4
+    # relate: with and without a viewpoint; argmin, argmax, middle: seen from a viewpoint,
+    # measured to segments between two ends, the rest
+    assert len(variants) == len(OP_SPECS) + 1 + 3 * 2
     for v in variants:
         fields = v["properties"]
         spec = OP_SPECS[fields["op"]["enum"][0]]
-        assert (fields["inputs"]["minItems"], fields["inputs"]["maxItems"]) == (
-            spec.min_inputs, spec.max_inputs)  # fmt: skip
+        arity = (fields["inputs"]["minItems"], fields["inputs"]["maxItems"])
+        if "metric" not in fields:
+            assert arity == (spec.min_inputs, spec.max_inputs)
+        else:
+            metrics = [Metric(m) for m in fields["metric"]["enum"]]
+            ends, seen = metrics[0].is_segment, metrics[0].is_seen_from
+            assert all(m.is_segment is ends and m.is_seen_from is seen for m in metrics)
+            assert arity == ((3, 3) if ends else (1, 1) if seen else (1, 2))
         assert set(fields) <= {"op", "inputs", *spec.required, *spec.optional}
         if "viewpoint" in fields:  # only where the relation or metric is seen from somewhere
             if "relation" in fields:
@@ -258,7 +265,7 @@ def test_the_per_op_schema_takes_middle_without_k() -> None:
         for v in strict["properties"]["steps"]["items"]["anyOf"]
         if v["properties"]["op"]["enum"] == ["middle"]
     ]
-    assert len(variants) == 2 and all("k" not in v for v in variants)
+    assert len(variants) == 3 and all("k" not in v for v in variants)
     assert sorted(m for v in variants for m in v["metric"]["enum"]) == sorted(
         m.value for m in Metric
     )
