@@ -23,6 +23,13 @@ Rules:
   a ``color``, the basic colour term nearest to it in CIELAB
   (:func:`causalsplat.colors.names_of`) as ``color`` (source ``geometry``), as for an
   entity built from Gaussians.
+- ``facing`` (optional): the direction the object's front faces (three numbers, world
+  frame, with a horizontal part that is not zero), as object tables with annotated fronts
+  give it (ReferIt3D's ``front_point`` minus the box centre). It is stored as the attribute
+  ``facing`` = ``"x y z"`` (unit length, source ``input``); the reasoner then reads "in
+  front of the toilet" and "looking at the front of the toilet, the towel on the left" from
+  the toilet's own front instead of from the middle of the room. A scene built from
+  Gaussians has no facing.
 - ``units`` defaults to ``"m"``, ``up`` to ``"z"``.
 - Relations come from the scene-graph edge builder (:mod:`causalsplat.graph.edges`),
   the same rules as for scenes built from a Gaussian field, with ``up`` as the vertical.
@@ -71,6 +78,7 @@ class ObjectRecord:
     points: tuple[tuple[float, float, float], ...]
     attributes: tuple[tuple[str, str], ...]
     rgb: tuple[float, float, float] | None = None
+    facing: tuple[float, float, float] | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -201,6 +209,8 @@ def objects_to_scene_graph(
 
 def _entity_attributes(obj: ObjectRecord) -> tuple[Attribute, ...]:
     attrs = [Attribute(k, v, AttributeSource.INPUT) for k, v in obj.attributes]
+    if obj.facing is not None and not any(k == "facing" for k, _ in obj.attributes):
+        attrs.append(Attribute("facing", facing_text(obj.facing), AttributeSource.INPUT))
     if obj.rgb is None:
         return tuple(attrs)
     rgb01 = tuple(v / 255.0 for v in obj.rgb)
@@ -209,6 +219,16 @@ def _entity_attributes(obj: ObjectRecord) -> tuple[Attribute, ...]:
     if not any(k == "color" for k, _ in obj.attributes):
         attrs.append(Attribute("color", names_of(rgb01)[0], AttributeSource.GEOMETRY))
     return tuple(attrs)
+
+
+def facing_text(facing: tuple[float, float, float]) -> str:
+    """A facing direction as the stored attribute value: unit length, ``"x y z"``.
+
+    >>> facing_text((0.0, -2.0, 0.0))
+    '0 -1 0'
+    """
+    norm = math.sqrt(math.fsum(v * v for v in facing))
+    return " ".join(f"{v / norm:.6g}" for v in facing)
 
 
 # -- validation helpers ------------------------------------------------------------------
@@ -257,7 +277,7 @@ def _triple(value: object, where: _Where, path: str) -> tuple[float, float, floa
 def _parse_object(obj: object, where: _Where, path: str) -> ObjectRecord:
     if not isinstance(obj, dict):
         raise where.error(path, f"must be an object, got {_kind(obj)}")
-    unknown = set(obj) - {"id", "label", "center", "size", "points", "attributes", "rgb"}
+    unknown = set(obj) - {"id", "label", "center", "size", "points", "attributes", "rgb", "facing"}
     if unknown:
         raise where.error(path, f"unknown keys {sorted(unknown)}")
     for required in ("id", "label", "center", "size"):
@@ -281,8 +301,15 @@ def _parse_object(obj: object, where: _Where, path: str) -> ObjectRecord:
         rgb = _triple(obj["rgb"], where, f"{path}.rgb")
         if not all(0.0 <= v <= 255.0 for v in rgb):
             raise where.error(f"{path}.rgb", f"each channel must be in [0, 255], got {list(rgb)}")
+    facing = None
+    if obj.get("facing") is not None:
+        facing = _triple(obj["facing"], where, f"{path}.facing")
+        if math.hypot(facing[0], facing[1]) == 0.0:
+            raise where.error(
+                f"{path}.facing", f"must point somewhere horizontally, got {list(facing)}"
+            )
     attributes = _attributes(obj, where, path)
-    return ObjectRecord(oid, label, center, size, points, attributes, rgb)
+    return ObjectRecord(oid, label, center, size, points, attributes, rgb, facing)
 
 
 def _attributes(obj: dict[str, Any], where: _Where, path: str) -> tuple[tuple[str, str], ...]:

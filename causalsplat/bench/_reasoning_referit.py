@@ -18,6 +18,7 @@ from __future__ import annotations
 import ast
 import csv
 import json
+import math
 import time
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
@@ -61,7 +62,8 @@ class RowOutcome:
 
 def objects_document(scan: str, root: Path = DATA, *, colour: bool = True) -> dict[str, Any]:
     """The objects document (DESIGN §9) of one scan's object table; ``colour``: with each
-    object's mean colour (the table's ``avg_rgba``) as ``rgb``."""
+    object's mean colour (the table's ``avg_rgba``) as ``rgb``. Objects with an annotated
+    front (``has_front``) face from their box centre towards their ``front_point``."""
     path = root / "objects_info" / f"objects_info_{scan}.json"
     table = json.loads(path.read_text(encoding="utf-8"))
     objects = []
@@ -73,6 +75,11 @@ def objects_document(scan: str, root: Path = DATA, *, colour: bool = True) -> di
             "center": [(a + b) / 2 for a, b in zip(lo, hi, strict=True)],
             "size": [b - a for a, b in zip(lo, hi, strict=True)],
         }
+        front = o.get("front_point")
+        if o.get("has_front") and isinstance(front, list) and len(front) == 3:
+            facing = [f - c for f, c in zip(front, obj["center"], strict=True)]
+            if math.hypot(facing[0], facing[1]) > 0.0:
+                obj["facing"] = facing
         rgba = o.get("avg_rgba")
         if colour and isinstance(rgba, list) and len(rgba) >= 3:
             obj["rgb"] = [float(v) for v in rgba[:3]]

@@ -130,6 +130,20 @@ class SceneContext:
         values = self.by_id[entity_id].attribute_values("rgb")
         return hex_to_rgb(values[0]) if values else None
 
+    def facing(self, entity_id: int) -> tuple[float, float] | None:
+        """The horizontal unit direction the entity's front faces (its ``facing``
+        attribute, see :mod:`causalsplat.objects`), or ``None`` (none stored, or one that
+        is not three numbers with a horizontal part)."""
+        values = self.by_id[entity_id].attribute_values("facing")
+        try:
+            x, y, _ = (float(v) for v in values[0].split()) if values else (0.0, 0.0, 0.0)
+        except ValueError:
+            return None
+        norm = math.hypot(x, y)
+        if not math.isfinite(norm) or norm == 0.0:
+            return None
+        return (x / norm, y / norm)
+
     def is_structural(self, entity: Entity) -> bool:
         return self.config.is_structural(entity.category)
 

@@ -606,9 +606,8 @@ class Planner:
                 return out
             return b.coalesce((out, None), *self._fallback(step, a[0], "with", selectors))
         relation = "near" if kind == "near" else kind
-        out = b.add(
-            Op.RELATE, step, a[0], relation=RelationType(relation), viewpoint=self._viewpoint(kind)
-        )
+        view = self._viewpoint(kind) or self._facing(kind, a[0])
+        out = b.add(Op.RELATE, step, a[0], relation=RelationType(relation), viewpoint=view)
         if not singular:
             return out
         alternatives: list[tuple[int, str | None]] = [(out, None)]
@@ -690,12 +689,37 @@ class Planner:
         where = self._centroid_of(ins.viewpoint)
         if where is None:
             return None
-        centre = self._observer() or list(self.ctx.centre)
+        observer = self._observer()
+        if observer is None and not ins.standing_at:
+            # "looking at the front of the toilet": where the toilet's front is known, the
+            # observer stands in front of it
+            front = self._front_view(self._viewpoint_ids(ins.viewpoint))
+            if front is not None:
+                return front
+        centre = observer or list(self.ctx.centre)
         if math.hypot(where[0] - centre[0], where[1] - centre[1]) < MIN_VIEW_DISTANCE:
             return None  # no direction to look in: the default viewpoint
         if ins.standing_at:
             return {"eye": where, "target": centre}
         return {"eye": centre, "target": where}
+
+    def _facing(self, kind: str, anchor: int) -> dict[str, list[float]] | None:
+        """For a view-dependent relation to one anchor whose front is known (``facing``),
+        the observer in front of it looking at it: "the table in front of the cabinet" is
+        in front of the cabinet's doors, wherever the middle of the room is."""
+        if kind not in VIEW:
+            return None
+        return self._front_view(self.b.within(anchor))
+
+    def _front_view(self, ids: tuple[int, ...] | None) -> dict[str, list[float]] | None:
+        """The observer a metre in front of the one entity ``ids``, looking at it, when its
+        front is known; else ``None``."""
+        facing = self.ctx.facing(ids[0]) if ids and len(ids) == 1 else None
+        if ids is None or facing is None:
+            return None
+        c = self.ctx.by_id[ids[0]].centroid
+        self.b.note(f"seen from the front of {self.ctx.by_id[ids[0]].category!r}")
+        return {"eye": [c[0] + facing[0], c[1] + facing[1], c[2]], "target": list(c)}
 
     def _observer(self) -> list[float] | None:
         """Where the observer stands when the instruction says it ("standing at the door
@@ -704,6 +728,9 @@ class Planner:
         return None if at is None else self._centroid_of(at)
 
     def _centroid_of(self, np: NounPhrase) -> list[float] | None:
+        return self._mean_centroid(self._viewpoint_ids(np))
+
+    def _viewpoint_ids(self, np: NounPhrase) -> tuple[int, ...] | None:
         if self._placing_viewpoint:
             return None
         self._placing_viewpoint = True
@@ -713,7 +740,7 @@ class Planner:
             self._placing_viewpoint = False
         if planned is None:
             return None
-        return self._mean_centroid(self.b.within(planned.step))
+        return self.b.within(planned.step)
 
     def _mean_centroid(self, ids: tuple[int, ...] | None) -> list[float] | None:
         """The mean centroid of the entities ``ids`` (``None`` for none, or unknown)."""

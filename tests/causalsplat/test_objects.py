@@ -106,6 +106,9 @@ BAD = [
     (one(rgb=[0, 256, 0]), r"objects\[0\].rgb: each channel must be in \[0, 255\]"),
     (one(rgb=[-1, 0, 0]), r"objects\[0\].rgb: each channel must be in \[0, 255\]"),
     (one(rgb="#ffffff"), r"objects\[0\].rgb: must be a list of three"),
+    (one(facing=[0, 1]), r"objects\[0\].facing: must be a list of three"),
+    (one(facing=[0, 0, 1]), r"objects\[0\].facing: must point somewhere horizontally"),
+    (one(facing=[0, "n", 0]), r"objects\[0\].facing\[1\]: must be a number"),
 ]
 
 
@@ -179,6 +182,33 @@ def test_rgb_is_stored_with_the_nearest_colour_term() -> None:
     assert first == {("rgb", "#e6e4de", "input"), ("color", "white", "geometry")}
     # a colour name the file gives stands; the measured colour is kept beside it
     assert second == {("rgb", "#785032", "input"), ("color", "walnut", "input")}
+
+
+def test_facing_is_stored_as_a_unit_direction_and_read_back(tmp_path: Path) -> None:
+    from causalsplat.reason import SceneContext
+
+    doc = one(facing=[0.0, -3.0, 4.0])
+    doc["scene_id"] = "s"
+    doc["objects"].append({"id": 2, "label": "b", "center": [3, 0, 0], "size": [1, 1, 1],
+                           "facing": [1, 1, 0], "attributes": {"facing": "0 1 0"}})  # fmt: skip
+    with open_store(f"sqlite:///{tmp_path / 's.db'}") as store:
+        store.ingest_objects(write(tmp_path, doc))
+        graph = store.scene("s").graph
+    first, second = ({(a.key, a.value) for a in e.attributes} for e in graph.entities)
+    assert first == {("facing", "0 -0.6 0.8")}
+    assert second == {("facing", "0 1 0")}  # a facing the file's attributes give stands
+    ctx = SceneContext(graph)
+    assert ctx.facing(1) == (0.0, -1.0)  # the horizontal part, unit length
+    assert ctx.facing(2) == (0.0, 1.0)
+
+
+@pytest.mark.parametrize("value", ["north", "0 0 1", "1 2", "nan 0 0", "inf 1 0"])
+def test_an_unusable_stored_facing_is_no_facing(value: str) -> None:
+    from causalsplat.reason import SceneContext
+
+    doc = one(attributes={"facing": value})
+    ctx = SceneContext(objects_to_scene_graph(parse_objects(doc), scene_id="s"))
+    assert ctx.facing(1) is None
 
 
 def test_a_bad_file_creates_no_store(tmp_path: Path) -> None:
