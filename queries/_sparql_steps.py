@@ -172,6 +172,17 @@ def sub_select(variables: str, body: str) -> str:
     return f"{{ SELECT {variables} WHERE {{\n{body}}} }}\n"
 
 
+def smallest_per_entity(value: str, body: str, condition: str) -> str:
+    """``?v``, the smallest ``value`` over the solutions of ``body`` that meet
+    ``condition``, per entity ``?e`` (with its ``?e_localId``), for ``argmin`` / ``argmax``
+    / ``middle`` against reference sets. An aggregate over no solution yields one unbound
+    row, which ``BOUND`` drops (see the executors' ``_match_text``)."""
+    return (
+        f"{{ SELECT ?e ?e_localId (MIN({value}) AS ?v) WHERE {{\n{body}FILTER {condition}\n}}"
+        " GROUP BY ?e ?e_localId }\nFILTER (BOUND(?e))\n"
+    )
+
+
 def select_entities(body: str, *, distinct: bool = True) -> str:
     """``SELECT [DISTINCT] ?e`` of the entities bound by ``body``."""
     head = "SELECT DISTINCT ?e" if distinct else "SELECT ?e"

@@ -36,6 +36,7 @@ from queries._sparql_steps import (
     double,
     literal,
     select_entities,
+    smallest_per_entity,
     sub_select,
     values,
 )
@@ -298,11 +299,7 @@ class _SparqlRun:
             )
             xy = [(f"?{v}_centroidX", f"?{v}_centroidY") for v in ("e", "a", "b")]
             d = segment_distance(SPARQL, *xy)
-            keyed = (  # BOUND: see _match_text
-                f"{{ SELECT ?e ?e_localId (MIN({d}) AS ?v) WHERE {{\n{triples}"
-                "FILTER (?e != ?a && ?e != ?b && ?a != ?b)\n} GROUP BY ?e ?e_localId }\n"
-                "FILTER (BOUND(?e))\n"
-            )
+            keyed = smallest_per_entity(d, triples, "(?e != ?a && ?e != ?b && ?a != ?b)")
         elif not metric.is_distance:
             lo, hi = ("?e_minX", "?e_minY", "?e_minZ"), ("?e_maxX", "?e_maxY", "?e_maxZ")
             value = metric_value(
@@ -317,10 +314,7 @@ class _SparqlRun:
             pairs += self.located("a", 1, ins[1], *XYZ, *(BOX if boxed else ()))
             a_lo, a_hi = ("?a_minX", "?a_minY", "?a_minZ"), ("?a_maxX", "?a_maxY", "?a_maxZ")
             d = reference_distance(SPARQL, metric.value, centroid, a_xyz, a_lo, a_hi)
-            keyed = (  # BOUND: see _match_text
-                f"{{ SELECT ?e ?e_localId (MIN({d}) AS ?v) WHERE {{\n{pairs}FILTER (?e != ?a)\n}}"
-                " GROUP BY ?e ?e_localId }\nFILTER (BOUND(?e))\n"
-            )
+            keyed = smallest_per_entity(d, pairs, "(?e != ?a)")
         else:
             c = tuple(double(x) for x in self.x.centre())
             point = (c[0], c[1], c[2])
