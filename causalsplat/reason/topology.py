@@ -686,14 +686,15 @@ class Planner:
         ins = self.instruction
         if kind not in VIEW or ins.viewpoint is None:
             return None
-        where = self._centroid_of(ins.viewpoint)
+        ids = self._viewpoint_ids(ins.viewpoint)
+        where = self._mean_centroid(ids)
         if where is None:
             return None
         observer = self._observer()
         if observer is None and not ins.standing_at:
             # "looking at the front of the toilet": where the toilet's front is known, the
             # observer stands in front of it
-            front = self._front_view(self._viewpoint_ids(ins.viewpoint))
+            front = self._front_view(ids)
             if front is not None:
                 return front
         centre = observer or list(self.ctx.centre)
@@ -714,8 +715,7 @@ class Planner:
     def _front_view(self, ids: tuple[int, ...] | None) -> dict[str, list[float]] | None:
         """The observer a metre in front of the one entity ``ids``, looking at it, when its
         front is known; else ``None``."""
-        facing = self.ctx.facing(ids[0]) if ids and len(ids) == 1 else None
-        if ids is None or facing is None:
+        if not ids or len(ids) != 1 or (facing := self.ctx.facing(ids[0])) is None:
             return None
         c = self.ctx.by_id[ids[0]].centroid
         self.b.note(f"seen from the front of {self.ctx.by_id[ids[0]].category!r}")
