@@ -178,6 +178,28 @@ def test_a_vivid_colour_contradicts_a_word_far_from_it(
     assert LEXICAL.answer(f"the {other} chair", ctx).entity_ids == (1,)
 
 
+def test_the_rest_of_the_scene_shows_what_a_colour_word_looks_like() -> None:
+    # two brown chairs (36 from "black": within the distance alone) in a room whose
+    # monitor, bin and tv measure black: the scene's lighting shows black, no chair is
+    # black, "the black chair" answers nothing; the same chairs in a room with nothing
+    # blacker keep "the black chair" to the darker one
+    brown, darker = (150, 110, 70), (120, 85, 55)
+    black = (30, 30, 32)
+    room = _coloured(("chair", 0, brown), ("chair", 1, darker), ("monitor", 2, black),
+                     ("trash can", 3, black), ("tv", 4, black), ("table", 5, brown))  # fmt: skip
+    ctx = SceneContext(objects_to_scene_graph(parse_objects(room)))
+    answer = LEXICAL.answer("the black chair", ctx)
+    assert answer.entity_ids == () and answer.nothing_fits
+    assert "contradicts 'black'" in answer.explanation
+    assert "3 of 4 other objects are nearer to black" in answer.explanation
+    assert LEXICAL.answer("the chair near the black monitor", ctx).entity_ids == (2,)
+    dim = _coloured(("chair", 0, brown), ("chair", 1, darker), ("monitor", 2, brown),
+                    ("trash can", 3, brown), ("tv", 4, black), ("table", 5, brown))  # fmt: skip
+    ctx = SceneContext(objects_to_scene_graph(parse_objects(dim)))
+    kept = LEXICAL.answer("the black chair", ctx)
+    assert kept.entity_ids == (2,) and not kept.nothing_fits, kept.explanation
+
+
 def test_of_several_colour_words_one_the_scene_contradicts_is_left_out() -> None:
     # "the green and blue chairs" where no chair is blue, "a blue-grey blanket" where the
     # blanket is grey: the colour that fits is used, the other noted; when every colour
