@@ -41,6 +41,14 @@ _COLOURED = frozenset({"colored", "coloured", "color", "colour", "toned", "tone"
 #: Shade words that name a lightness by themselves ("the dark couch", "it is pale"):
 #: "light" is also a thing, "deep" a depth.
 _LONE_SHADES = frozenset({"dark", "darker", "pale"})
+#: Nouns the scene holds no entity for (places and people) whose modifiers describe them,
+#: never the target: "the pillow in the dark corner", "a monitor in a dark room", "the bin
+#: near the tall man"; and "in <colour>" after one of them is what they wear ("the chair
+#: by the person in blue"). Parts are not among them: "a chair with a black back" is a
+#: black chair as much as anything.
+_OWN_MODIFIERS = frozenset({"corner", "room", "area", "spot", "place", "space", "person",
+                            "people", "man", "woman", "guy", "girl", "boy", "men",
+                            "women"})  # fmt: skip
 
 
 @dataclass(frozen=True, slots=True)
@@ -325,6 +333,9 @@ def read_items(
             i += 1
             continue
         cue = g.find_cue(tokens, tuple(offsets), joined, i)
+        if cue is not None and cue.kind == "inside" and _wears(tokens, index, i, cue.end):
+            i = _attributes_end(tokens, index, cue.end)  # "the person in blue": theirs
+            continue
         if cue is not None:
             flush()
             if cue.kind in _SIDE_CUES:
@@ -383,6 +394,37 @@ def read_items(
             pending.clear()
             i = foreign.end
             continue
+        if t in _OWN_MODIFIERS:
+            # "in the dark corner", "in a small room": the corner is dark, the room small;
+            # "in the upper corner" still says where the target is
+            pending[:] = [(at, m) for at, m in pending if not _its_own(m)]
         i += 1
     flush()
     return items
+
+
+def _its_own(mod: Modifier) -> bool:
+    """Whether a modifier before a place or a person describes it (a colour, a size), not
+    where the target is (a height: "the upper corner")."""
+    return mod.kind == "attribute" or (mod.kind == "extreme" and mod.metric is not Metric.Z)
+
+
+def _wears(tokens: tuple[str, ...], index: CategoryIndex, i: int, end: int) -> bool:
+    """Whether the "in" at ``i`` (its cue ending at ``end``) says what a person or place
+    just named looks like: "the person in blue", "a man in a red shirt" is what he
+    wears, not where the target is."""
+    if i == 0 or tokens[i - 1] not in _OWN_MODIFIERS or end >= len(tokens):
+        return False
+    return _attributes_end(tokens, index, end) > end
+
+
+def _attributes_end(tokens: tuple[str, ...], index: CategoryIndex, i: int) -> int:
+    """The end of the attribute words (a determiner before them allowed) from ``i``:
+    ``i`` itself when none follow."""
+    j = i + 1 if i < len(tokens) and tokens[i] in g.DETERMINERS else i
+    k = j
+    while (
+        k < len(tokens) and (m := _modifier(tokens[k], index)) is not None and m.kind == "attribute"
+    ):
+        k += 1
+    return k if k > j else i

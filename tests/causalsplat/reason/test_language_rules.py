@@ -118,6 +118,35 @@ def test_not_in_the_corner(room: SceneContext) -> None:
     assert ask(room, "the chair that is not in the corner") in ((5,), (6,))
 
 
+@pytest.mark.parametrize(
+    ("text", "kind"),
+    [
+        ("the chair in the dark corner", "chair"),
+        ("the cup on the table in a small room", "cup"),
+        ("the chair next to the tall man", "chair"),
+        ("the lamp next to the person in blue", "lamp"),
+        ("the couch beside a woman in a red dress", "couch"),
+    ],
+)
+def test_a_place_or_person_keeps_its_own_modifiers(
+    room: SceneContext, text: str, kind: str
+) -> None:
+    # "dark", "small", "tall", "in blue" describe the corner, the room, the man and the
+    # person (none of them an entity here), not the target: nothing contradicts it
+    ins = REASONER.parse(text, room)
+    assert ins.target is not None and ins.target.categories == (kind,)
+    assert ins.target.attributes == () and ins.target.extremes == ()
+    assert REASONER.answer(text, room).entity_ids != ()
+
+
+def test_a_target_keeps_the_modifiers_said_of_it(room: SceneContext) -> None:
+    ins = REASONER.parse("the black chair in the corner", room)
+    assert ins.target is not None and ins.target.attributes == ("black",)
+    assert ins.target.place == "corner"
+    ins = REASONER.parse("the chair in black", room)
+    assert ins.target is not None and ins.target.attributes == ("black",)
+
+
 Box = tuple[int, str, tuple[float, float, float], tuple[float, float, float]]
 
 
