@@ -46,6 +46,9 @@ def room(facing: list[float] | None) -> list[Box]:
         ("pick the chair that is in front of the toilet", 10, 11),
         ("looking at the front of the toilet, the towel on the left of it", 21, 20),
         ("facing the toilet, select the towel that is to the left of the toilet", 21, 20),
+        # across from it: ahead of its front (north), or else towards the room's middle
+        ("the chair across from the toilet", 10, 11),
+        ("the chair opposite the toilet", 10, 11),
     ],
 )
 def test_relations_to_an_object_with_a_front_are_seen_from_its_front(
