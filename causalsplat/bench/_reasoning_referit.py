@@ -303,3 +303,53 @@ def phenomena(text: str) -> tuple[str, ...]:
     if any(is_color_word(w) for w in words):
         found.insert(0, "colour")
     return tuple(found)
+
+
+def main(argv: Sequence[str]) -> int:  # pragma: no cover - a development tool
+    """``python -m causalsplat.bench._reasoning_referit nr3d|scanrefer [NAME]``: the
+    offline reasoner on one set of rows (default the 1,000-row *train* samples the
+    reasoner is developed on), with ``--none`` the contradicted-colour variants
+    (ScanRefer), with ``--jsonl FILE`` each row's answer and reading, to compare two trees
+    row by row."""
+    import argparse
+    import tempfile
+
+    from causalsplat.reason.offline import OfflineReasoner
+
+    parser = argparse.ArgumentParser(prog="python -m causalsplat.bench._reasoning_referit")
+    parser.add_argument("dataset", choices=("nr3d", "scanrefer"))
+    parser.add_argument("name", nargs="?", default="train_sampled1000",
+                        help="nr3d_<name>.csv or ScanRefer_filtered_<name>.json")  # fmt: skip
+    parser.add_argument("--none", action="store_true", help="also the contradicted variants")
+    parser.add_argument("--jsonl", metavar="FILE", help="write every row's answer here")
+    args = parser.parse_args(argv)
+    rows = nr3d_rows(args.name) if args.dataset == "nr3d" else scanrefer_rows(args.name)
+    with tempfile.TemporaryDirectory() as tmp:
+        graphs = ScanGraphs(f"sqlite:///{Path(tmp) / 'rows.db'}")
+        reasoner = OfflineReasoner()
+        outcomes = evaluate_rows(rows, reasoner, graphs)
+        right = sum(o.correct for o in outcomes)
+        print(f"{args.dataset} {args.name}: {right} of {len(outcomes)} right, "
+              f"{sum(not o.predicted for o in outcomes)} answered with nothing")  # fmt: skip
+        if args.none:
+            pairs = contradicted_rows(rows, graphs)
+            originals = evaluate_rows([p[0] for p in pairs], reasoner, graphs)
+            variants = evaluate_rows([p[1] for p in pairs], reasoner, graphs)
+            print(f"contradicted variants: {sum(not o.predicted for o in variants)} of "
+                  f"{len(pairs)} rightly answered with nothing, originals "
+                  f"{sum(not o.predicted for o in originals)} wrongly")  # fmt: skip
+        if args.jsonl:
+            with open(args.jsonl, "w", encoding="utf-8") as out:
+                for o in outcomes:
+                    record = {"scan": o.row.scan, "text": o.row.text, "target": o.row.target,
+                              "predicted": list(o.predicted), "correct": o.correct,
+                              "error": o.error}  # fmt: skip
+                    out.write(json.dumps(record) + "\n")
+        graphs.close()
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    import sys
+
+    raise SystemExit(main(sys.argv[1:]))
