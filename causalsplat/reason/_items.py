@@ -333,8 +333,9 @@ def read_items(
             i += 1
             continue
         cue = g.find_cue(tokens, tuple(offsets), joined, i)
-        if cue is not None and cue.kind == "inside" and _wears(tokens, index, i, cue.end):
-            i = _attributes_end(tokens, index, cue.end)  # "the person in blue": theirs
+        worn = None if cue is None or cue.kind != "inside" else _worn_end(tokens, index, i, cue.end)
+        if worn is not None:
+            i = worn  # "the person in blue": theirs
             continue
         if cue is not None:
             flush()
@@ -409,22 +410,17 @@ def _its_own(mod: Modifier) -> bool:
     return mod.kind == "attribute" or (mod.kind == "extreme" and mod.metric is not Metric.Z)
 
 
-def _wears(tokens: tuple[str, ...], index: CategoryIndex, i: int, end: int) -> bool:
-    """Whether the "in" at ``i`` (its cue ending at ``end``) says what a person or place
-    just named looks like: "the person in blue", "a man in a red shirt" is what he
-    wears, not where the target is."""
-    if i == 0 or tokens[i - 1] not in _OWN_MODIFIERS or end >= len(tokens):
-        return False
-    return _attributes_end(tokens, index, end) > end
-
-
-def _attributes_end(tokens: tuple[str, ...], index: CategoryIndex, i: int) -> int:
-    """The end of the attribute words (a determiner before them allowed) from ``i``:
-    ``i`` itself when none follow."""
-    j = i + 1 if i < len(tokens) and tokens[i] in g.DETERMINERS else i
+def _worn_end(tokens: tuple[str, ...], index: CategoryIndex, i: int, end: int) -> int | None:
+    """Where the attribute words end (a determiner before them allowed) when the "in" at
+    ``i`` (its cue ending at ``end``) says what a person or place just named looks like:
+    "the person in blue", "a man in a red shirt" is what he wears, not where the target
+    is; ``None`` otherwise."""
+    if i == 0 or tokens[i - 1] not in _OWN_MODIFIERS:
+        return None
+    j = end + 1 if end < len(tokens) and tokens[end] in g.DETERMINERS else end
     k = j
     while (
         k < len(tokens) and (m := _modifier(tokens[k], index)) is not None and m.kind == "attribute"
     ):
         k += 1
-    return k if k > j else i
+    return k if k > j else None

@@ -705,14 +705,14 @@ class Planner:
         ids = b.within(anchor)
         where = self._mean_centroid(ids)
         centre = list(self.ctx.centre)
-        facing = self.ctx.facing(ids[0]) if ids and len(ids) == 1 else None
         near_middle = max(MIN_VIEW_DISTANCE, MIDDLE * self.ctx.half_diagonal)
-        if facing is not None and where is not None:
-            b.note(f"seen from the front of {self.ctx.by_id[ids[0]].category!r}")
-            centre = [where[0] + facing[0], where[1] + facing[1], where[2]]
+        front = self._front_view(ids)
+        if front is not None:  # at X, looking the way the observer in front of it looks back
+            view = {"eye": front["target"], "target": front["eye"]}
         elif where is None or math.dist(where[:2], centre[:2]) < near_middle:
             return self._related(step, "closest", [anchor], singular=singular, selectors=selectors)
-        view = {"eye": where, "target": centre}
+        else:
+            view = {"eye": where, "target": centre}
         # the words may leave the anchor itself ("the chair opposite the chair")
         others = b.coalesce((b.add(Op.DIFFERENCE, step, anchor), None), (step, None))
         if singular and not selectors:
