@@ -323,7 +323,10 @@ def main(argv: Sequence[str]) -> int:  # pragma: no cover - a development tool
     parser.add_argument("--none", action="store_true", help="also the contradicted variants")
     parser.add_argument("--jsonl", metavar="FILE", help="write every row's answer here")
     args = parser.parse_args(argv)
-    rows = nr3d_rows(args.name) if args.dataset == "nr3d" else scanrefer_rows(args.name)
+    try:
+        rows = nr3d_rows(args.name) if args.dataset == "nr3d" else scanrefer_rows(args.name)
+    except FileNotFoundError as exc:
+        parser.error(f"no such rows file: {exc.filename}")
     with tempfile.TemporaryDirectory() as tmp:
         graphs = ScanGraphs(f"sqlite:///{Path(tmp) / 'rows.db'}")
         reasoner = OfflineReasoner()
