@@ -1073,6 +1073,18 @@ class _Reader:
                 # "the desk is against the wall. in front of the desk is a chair": a chair
                 # in front of the desk, which is behind it
                 return k + 1, Constraint(_inverse(cue.kind), (beside,))
+            free = self.free
+            if (
+                free is not None
+                and cue.kind in _TURNABLE
+                and free.categories
+                and not free.is_any
+                and set(free.categories) != set(anchors[0].categories)
+            ):
+                # "this is a black chair. a whiteboard is behind the chair": the clause
+                # describes the whiteboard, and the chair is in front of it
+                self.free = None
+                return k, Constraint(_inverse(cue.kind), (free,))
         if not anchors and k < len(items) and items[k].back_reference:
             while k < len(items) and items[k].back_reference:
                 k += 1

@@ -556,6 +556,16 @@ def test_a_thing_said_to_be_beside_the_target_is_its_anchor() -> None:
         answer = REASONER.answer(text, ctx)
         assert answer.entity_ids == (1,), (text, answer.explanation)
         assert "behind 'chair'" in answer.explanation, answer.explanation
+    # the chair named again as the anchor of a clause about something else: "a lamp is
+    # behind the chair" places the chair in front of the lamp
+    for text in (
+        "this is a chair. a lamp is behind the chair.",
+        "this is a chair. there is a lamp behind the chair.",
+    ):
+        answer = REASONER.answer(text, ctx)
+        assert "in_front_of 'lamp'" in answer.explanation, (text, answer.explanation)
+    answer = REASONER.answer("the desk by the wall. the desk is left of the lamp.", ctx)
+    assert "left_of 'lamp'" in answer.explanation, answer.explanation
 
 
 def test_far_right_of_an_anchor_is_the_rightmost_of_those_right_of_it() -> None:
