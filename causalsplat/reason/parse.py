@@ -671,10 +671,11 @@ def _viewpoint(tokens: tuple[str, ...], index: CategoryIndex) -> _View:
         and not any(t in g.LOOKING for t in tokens)
         and not any(t in g.FACING_PLACES for t in tokens)
     )
-    # "looking from the toilet", "seen from the door": the observer is at it
+    # "looking from the toilet", "seen from the door": the observer is at it; "viewing
+    # from the foot of the bed" faces the bed, as standing at its foot does
     seen_from = any(
         t in g.LOOKING and nxt == "from" for t, nxt in itertools.pairwise(tokens)
-    ) and not any(t in _LOOKED_AT for t in tokens)
+    ) and not any(t in _LOOKED_AT or t in g.FACING_PLACES for t in tokens)
     shown = next(
         (np for np in every if np is not observer and _word_before(tokens, np) == "with"), None
     )

@@ -46,6 +46,24 @@ def test_looking_from_a_place_stands_there() -> None:
     assert REASONER.answer("looking at the toilet, the towel on the right", ctx).entity_ids == (3,)
 
 
+def test_looking_from_the_foot_of_a_bed_faces_it() -> None:
+    # a bed against the north wall, a pillow at each side of its head: from its foot one
+    # faces the bed (north), so the western pillow is on the left; looking from the bed
+    # itself one faces the room (south), and the eastern pillow is on the left
+    ctx = _room([FLOOR, (1, "bed", (0.0, 2.9, 0.3), (1.6, 2.0, 0.6)),
+                 (2, "pillow", (-0.5, 3.6, 0.7), (0.5, 0.3, 0.2)),
+                 (3, "pillow", (0.5, 3.6, 0.7), (0.5, 0.3, 0.2)),
+                 (4, "desk", (0.0, -3.5, 0.4), (1.2, 0.6, 0.8))])  # fmt: skip
+    for text in (
+        "viewing from the foot of the bed, it's the pillow on the left",
+        "looking from the foot of the bed, the pillow on the left",
+    ):
+        answer = REASONER.answer(text, ctx)
+        assert answer.entity_ids == (2,), (text, answer.explanation)
+    answer = REASONER.answer("looking from the bed, the pillow on the left", ctx)
+    assert answer.entity_ids == (3,), answer.explanation
+
+
 def test_a_relation_with_more_to_come_selects_and_the_last_one_chooses() -> None:
     # two dressers beside the bed (nothing is stored as under it) and a desk by the
     # lower one: "under the bed" keeps both, "farther from the desk" chooses
