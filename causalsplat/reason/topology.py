@@ -435,6 +435,33 @@ class Planner:
         b.note(f"{word}: {len(keep)} of {len(ids)} candidates by lightness")
         return self._keep_colours(step, [known[i] for i in keep])
 
+    def _names_nothing(self, np: NounPhrase) -> bool:
+        """Whether ``np`` names nothing the scene holds, even grounded by meaning."""
+        if np.is_any or np.categories:
+            return False
+        return self._anchor_categories is None or not self._anchor_categories(np)
+
+    def _part_colours(self, step: int, part: NounPhrase) -> int:
+        """The colour of a part the scene does not hold as an object ("the monitor with a
+        pink screen", "it has a tan background") is some of the target's own: of ``step``,
+        those within :data:`COLOUR_MARGIN` of the nearest to each colour word. A part is a
+        share of its object's mean colour, so the word only ranks: it never contradicts."""
+        for word in part.attributes:
+            phrase = colour_phrase(word)
+            ids = self.ids[step]
+            if phrase is None or phrase[0] is None or len(ids) < 2:
+                continue
+            known = self._colours(ids)
+            if len(known) < len(ids):
+                continue
+            keep = self._nearest(known, phrase[0], phrase[1])
+            if len(keep) == len(ids):
+                continue
+            self.b.note(f"{part.text!r} is part of it: {word}, {len(keep)} of {len(ids)}"
+                        " candidates by colour")  # fmt: skip
+            step = self._keep_colours(step, [known[i] for i in keep])
+        return step
+
     def _keep_colours(self, step: int, colours: list[tuple[float, float, float]]) -> int:
         """Those of ``step`` of the stored ``colours``: one filter per colour kept, or, when
         every candidate stores one and fewer are dropped, the candidates less one filter per
@@ -514,6 +541,9 @@ class Planner:
         step = self.candidates(np, role=role, categories=categories)
         if step is None:
             return None
+        for c in np.constraints:
+            if c.kind == "with" and not c.negated and self._names_nothing(c.anchors[0]):
+                step = self._part_colours(step, c.anchors[0])
         last = Planned(step)
         base = step
         selectors = bool(np.extremes or np.side or np.ordinal or np.place)

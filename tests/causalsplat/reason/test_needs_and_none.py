@@ -216,6 +216,20 @@ def test_of_several_colour_words_one_the_scene_contradicts_is_left_out() -> None
     assert none.entity_ids == () and none.nothing_fits
 
 
+def test_the_colour_of_a_part_the_scene_does_not_hold_ranks_its_object() -> None:
+    # three monitors, one measured pink: "the monitor with a pink screen" (no screen in the
+    # objects) is the pink one; a part is a share of its object's colour, so a part's
+    # colour no monitor is near ranks them and never answers "none"
+    doc = _coloured(("monitor", 0, (40, 40, 42)), ("monitor", 1, (203, 83, 164)),
+                    ("monitor", 2, (70, 70, 75)), ("desk", 4, (120, 80, 50)))  # fmt: skip
+    ctx = SceneContext(objects_to_scene_graph(parse_objects(doc)))
+    pink = LEXICAL.answer("the monitor with a pink screen", ctx)
+    assert pink.entity_ids == (2,), pink.explanation
+    assert "'pink screen' is part of it: pink, 1 of 3 candidates by colour" in pink.explanation
+    green = LEXICAL.answer("the monitor with a bright green screen", ctx)
+    assert len(green.entity_ids) == 1 and not green.nothing_fits, green.explanation
+
+
 @pytest.mark.shared_data
 def test_needs_on_scene0000(reasoner: OfflineReasoner) -> None:
     from causalsplat.bench._reasoning_referit import objects_document
