@@ -1108,7 +1108,25 @@ class _Reader:
                 return k, Constraint("closest", (anchors[0],))
         words = self.tokens[cue.start : cue.end]
         far = "far" in words or self.tokens[max(0, cue.start - 3) : cue.start] == _ALL_THE_WAY
+        anchors = [self._of_the_target(a) for a in anchors]
         return k, Constraint(cue.kind, tuple(anchors), far=far)
+
+    def _of_the_target(self, np: NounPhrase) -> NounPhrase:
+        """An anchor "one" is another of the target's kind ("a large shelf next to the tall
+        skinny one": the tallest of the other shelves)."""
+        m, target = np.mention, self.target
+        if (
+            m is None
+            or not m.generic
+            or m.phrase not in ("one", "ones")
+            or target is None
+            or target.is_any
+            or not target.categories
+            or target.mention is None
+        ):
+            return np
+        kind = replace(m, categories=target.categories, score=target.mention.score, generic=False)
+        return replace(np, mention=kind)
 
     def _neighbour_side(self, k: int) -> NounPhrase | None:
         """The phrase a side modifier at item ``k`` places beside the target ("... there is

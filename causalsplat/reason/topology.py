@@ -710,13 +710,24 @@ class Planner:
     ) -> list[tuple[int, str | None]]:
         """What a singular phrase keeps when its relation selects nothing (alternatives for
         :meth:`ProgramBuilder.coalesce`): with a selector of its own ("the top picture on
-        the wall"), every candidate, for the selector to choose from; else the candidate
+        the wall"), every candidate, for the selector to choose from (those other than the
+        anchor first, when the anchor is one of them: "a large shelf next to the tall
+        one"); else the candidate
         closest to the anchor; when every anchor is a candidate itself ("the trash can left
         of another trash can" when the words leave one trash can: nothing is related to
         itself, and the one left is meant), every candidate."""
         b, word = self.b, _WORDS.get(kind, kind)
         alone = (step, f"nothing is {word} it; the relation was not used")
         if selectors:
+            mine = self.ids.get(step)  # the phrase's candidates, when no relation came before
+            theirs = b.within(anchor) if mine else None
+            if (
+                mine and theirs and set(theirs) & set(mine)
+                and (set(mine) - set(theirs) or (b.at_most_one(anchor) and len(mine) > 1))
+            ):  # fmt: skip
+                # "a large shelf next to the tall one": whatever else, not the tall one
+                others = b.add(Op.DIFFERENCE, step, anchor)
+                return [(others, f"nothing is {word} it; took the others of its kind"), alone]
             return [alone]
         closest = b.add(Op.ARGMIN, step, anchor, metric=b.distance_to(anchor))
         return [(closest, f"nothing is {word} it; took the closest instead"), alone]

@@ -643,3 +643,17 @@ def test_there_is_one_to_the_left_places_a_neighbour_not_the_target() -> None:
     answer = REASONER.answer(text, ctx)
     assert answer.entity_ids == (3,), answer.explanation
     assert "side left" not in answer.explanation.splitlines()[0]
+
+
+def test_an_anchor_one_is_another_of_the_targets_kind() -> None:
+    # three shelves far apart, the tallest also the largest: "a large shelf next to the
+    # tall one" is another shelf than the tall one (nothing is stored near it), never the
+    # tallest thing of the room whatever its kind, nor the tall shelf itself
+    ctx = _room([FLOOR, (1, "shelf", (-2.5, 3.0, 0.6), (0.6, 1.3, 1.2)),
+                 (2, "shelf", (2.5, -3.0, 0.45), (1.0, 0.4, 0.9)),
+                 (3, "shelf", (2.5, 3.0, 0.4), (0.35, 0.35, 0.8)),
+                 (4, "wardrobe", (-3.5, -3.0, 1.0), (0.6, 1.0, 2.0))])  # fmt: skip
+    answer = REASONER.answer("a large shelf next to the tall skinny one", ctx)
+    assert "near 'one'" in answer.explanation, answer.explanation
+    assert 'filter_category(v0, "wardrobe")' not in answer.explanation
+    assert answer.entity_ids == (2,), answer.explanation
