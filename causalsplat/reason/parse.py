@@ -1116,6 +1116,18 @@ class _Reader:
         skinny one": the tallest of the other shelves)."""
         m, target = np.mention, self.target
         if (
+            m is not None
+            and not m.generic
+            and m.score < NAMED_BY_MEANING
+            and target is not None
+            and set(target.categories) & set(m.categories)
+            and set(m.categories) - set(target.categories)
+        ):
+            # "the chair closest to the recliner", a recliner being a kind of chair: the
+            # words name something other than the target's kind
+            rest = tuple(c for c in m.categories if c not in target.categories)
+            return replace(np, mention=replace(m, categories=rest))
+        if (
             m is None
             or not m.generic
             or m.phrase not in ("one", "ones")
@@ -1267,6 +1279,9 @@ def _without_repeats(np: NounPhrase, target: NounPhrase) -> NounPhrase:
         extremes=tuple(e for e in np.extremes if e not in target.extremes),
     )
 
+
+#: Below this score a phrase names a category by meaning (a WordNet relative), not by name.
+NAMED_BY_MEANING = 0.8
 
 _INVERSE = {
     "supported_by": "supports", "supports": "supported_by", "above": "below",

@@ -657,3 +657,14 @@ def test_an_anchor_one_is_another_of_the_targets_kind() -> None:
     assert "near 'one'" in answer.explanation, answer.explanation
     assert 'filter_category(v0, "wardrobe")' not in answer.explanation
     assert answer.entity_ids == (2,), answer.explanation
+
+
+def test_an_anchor_named_by_meaning_is_not_the_targets_own_kind() -> None:
+    # a recliner is a kind of chair (WordNet): "the chair closest to the recliner" is the
+    # chair by the massage chair, not the chair closest to another chair
+    ctx = _room([FLOOR, (1, "massage chair", (0.0, 0.0, 0.5), (0.9, 0.9, 1.0)),
+                 (2, "chair", (1.4, 0.0, 0.45), BOX), (3, "chair", (-3.0, 3.0, 0.45), BOX),
+                 (4, "chair", (-3.0, 2.4, 0.45), BOX)])  # fmt: skip
+    answer = REASONER.answer("the chair closest to the recliner", ctx)
+    assert answer.entity_ids == (2,), answer.explanation
+    assert 'filter_category(v0, "massage chair")' in answer.explanation
