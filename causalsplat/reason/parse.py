@@ -1108,12 +1108,15 @@ class _Reader:
                 return k, Constraint("closest", (anchors[0],))
         words = self.tokens[cue.start : cue.end]
         far = "far" in words or self.tokens[max(0, cue.start - 3) : cue.start] == _ALL_THE_WAY
-        anchors = [self._of_the_target(a) for a in anchors]
+        anchors = [self._anchor_kind(a) for a in anchors]
         return k, Constraint(cue.kind, tuple(anchors), far=far)
 
-    def _of_the_target(self, np: NounPhrase) -> NounPhrase:
-        """An anchor "one" is another of the target's kind ("a large shelf next to the tall
-        skinny one": the tallest of the other shelves)."""
+    def _anchor_kind(self, np: NounPhrase) -> NounPhrase:
+        """The kinds an anchor names, read against the target's: an anchor named by
+        meaning (below :data:`NAMED_BY_MEANING`) that also takes in the target's own kind
+        is the other kinds ("the chair closest to the recliner", a recliner being a kind
+        of chair: the massage chair); an anchor "one" is another of the target's kind ("a
+        large shelf next to the tall skinny one": the tallest shelf)."""
         m, target = np.mention, self.target
         if (
             m is not None
@@ -1123,8 +1126,6 @@ class _Reader:
             and set(target.categories) & set(m.categories)
             and set(m.categories) - set(target.categories)
         ):
-            # "the chair closest to the recliner", a recliner being a kind of chair: the
-            # words name something other than the target's kind
             rest = tuple(c for c in m.categories if c not in target.categories)
             return replace(np, mention=replace(m, categories=rest))
         if (

@@ -712,10 +712,9 @@ class Planner:
         :meth:`ProgramBuilder.coalesce`): with a selector of its own ("the top picture on
         the wall"), every candidate, for the selector to choose from (those other than the
         anchor first, when the anchor is one of them: "a large shelf next to the tall
-        one"); else the candidate
-        closest to the anchor; when every anchor is a candidate itself ("the trash can left
-        of another trash can" when the words leave one trash can: nothing is related to
-        itself, and the one left is meant), every candidate."""
+        one"); else the candidate closest to the anchor; when every anchor is a candidate
+        itself ("the trash can left of another trash can" when the words leave one trash
+        can: nothing is related to itself, and the one left is meant), every candidate."""
         b, word = self.b, _WORDS.get(kind, kind)
         alone = (step, f"nothing is {word} it; the relation was not used")
         if selectors:
