@@ -33,9 +33,13 @@ from causalsplat.reason.lexicon import Lexicon
 from queries.semantics import text_similarity
 
 MAX_PHRASE = 4
+#: Lowest lexicon score of a mention that names a category (name 1.0, base form 0.98,
+#: synonym 0.9, head noun 0.8; hypernyms and foreign nouns score 0.6 or less): below it,
+#: a phrase names a category only by another name or by meaning.
+NAMED = 0.8
 #: Another name the knowledge table gives the category's kind ("wastebasket" for
 #: ``trash can``): below a head noun, and below what a need counts as named outright
-#: (``ground.NAMED``): "store tissues" asks for what holds tissues, and scoring the tissue
+#: (:data:`NAMED`): "store tissues" asks for what holds tissues, and scoring the tissue
 #: box as what the need acts on (as 0.9 did) cost DDN train 1.4 points.
 ALIAS = 0.75
 _HYPERNYM_DEPTH = 3

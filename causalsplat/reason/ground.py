@@ -63,7 +63,7 @@ from causalsplat.reason._grammar import (
     POSSESSIVES,
     state_at,
 )
-from causalsplat.reason._mentions import CategoryIndex, mention_at
+from causalsplat.reason._mentions import NAMED, CategoryIndex, mention_at
 from causalsplat.reason._verbs import (
     NeedVerbs,
     affords_verb,
@@ -83,9 +83,6 @@ from causalsplat.reason.parse import Constraint, Instruction, NounPhrase
 if TYPE_CHECKING:
     from collections.abc import Callable, Iterable
 
-#: Lowest lexicon score of a mention that names a category (name 1.0, base form 0.98,
-#: synonym 0.9, head noun 0.8; hypernyms and foreign nouns score 0.6 or less).
-NAMED = 0.8
 #: How much a category loses when the need names it as what it acts on.
 PATIENT = 0.15
 #: When what would meet a need best anywhere (the reference of :data:`NEED_SHARE`)

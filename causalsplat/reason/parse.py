@@ -16,7 +16,7 @@ from dataclasses import dataclass, field, replace
 from causalsplat.reason import _grammar as g
 from causalsplat.reason._conditions import asks_what_follows, moves_away, split_condition
 from causalsplat.reason._items import Item, Modifier, read_items
-from causalsplat.reason._mentions import CategoryIndex, Mention
+from causalsplat.reason._mentions import NAMED, CategoryIndex, Mention
 from causalsplat.reason._text import NUMBER_WORDS, tokenize
 from causalsplat.reason.lexicon import Lexicon
 from queries import Metric, Op
@@ -289,10 +289,6 @@ def _quantified(tokens: tuple[str, ...], target: NounPhrase) -> bool:
     return any(t in _UNIVERSAL for t in tokens[: target.mention.start])
 
 
-#: Lowest lexicon score of a mention that names a category (see ``ground.NAMED``).
-_NAMED = 0.8
-
-
 #: Lexicon score from which a noun names a scene category itself (its name, base form or
 #: synonym), not only as its head noun ("machine" of "washing machine") or a hypernym.
 _NAMES_ITSELF = 0.9
@@ -450,7 +446,7 @@ def _names_what_is_wanted(target: NounPhrase | None, purpose: int | None, fetch:
     if target is None or target.is_any or target.mention is None:
         return False
     mention = target.mention
-    if not mention.categories or mention.score < _NAMED:
+    if not mention.categories or mention.score < NAMED:
         return False
     return purpose is None or fetch or mention.start < purpose
 
@@ -477,7 +473,7 @@ def _instrument(
         return None
     (np,) = first.anchors
     m = np.mention
-    if m is None or np.is_any or not m.categories or m.score < _NAMED:
+    if m is None or np.is_any or not m.categories or m.score < NAMED:
         return None
     if purpose is None or first.span[0] < purpose or purpose >= len(tokens):
         return None
@@ -1112,16 +1108,17 @@ class _Reader:
         return k, Constraint(cue.kind, tuple(anchors), far=far)
 
     def _anchor_kind(self, np: NounPhrase) -> NounPhrase:
-        """The kinds an anchor names, read against the target's: an anchor named by
-        meaning (below :data:`NAMED_BY_MEANING`) that also takes in the target's own kind
-        is the other kinds ("the chair closest to the recliner", a recliner being a kind
-        of chair: the massage chair); an anchor "one" is another of the target's kind ("a
-        large shelf next to the tall skinny one": the tallest shelf)."""
+        """The kinds an anchor names, read against the target's: an anchor not named
+        outright (below :data:`NAMED`: by meaning, a WordNet relative) that also takes in
+        the target's own kind is the other kinds ("the chair closest to the recliner", a
+        recliner being a kind of chair: the massage chair); an anchor "one" is another of
+        the target's kind ("a large shelf next to the tall skinny one": the tallest
+        shelf)."""
         m, target = np.mention, self.target
         if (
             m is not None
             and not m.generic
-            and m.score < NAMED_BY_MEANING
+            and m.score < NAMED
             and target is not None
             and set(target.categories) & set(m.categories)
             and set(m.categories) - set(target.categories)
@@ -1280,9 +1277,6 @@ def _without_repeats(np: NounPhrase, target: NounPhrase) -> NounPhrase:
         extremes=tuple(e for e in np.extremes if e not in target.extremes),
     )
 
-
-#: Below this score a phrase names a category by meaning (a WordNet relative), not by name.
-NAMED_BY_MEANING = 0.8
 
 _INVERSE = {
     "supported_by": "supports", "supports": "supported_by", "above": "below",
