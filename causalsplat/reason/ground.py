@@ -34,8 +34,9 @@ How the two signals combine, by what the instruction's target is:
   acts on is scored without the words that name it. The best category is taken, with
   every category tied with it (two labels of one kind of object share their facts) and
   every category within :data:`WIDEN` of it that affords, by the lexicon's WordNet
-  affordances, what the best one affords for this need ("where can I sit down?": the
-  chairs and the couch). When the
+  affordances, what the best one affords for this need, when the need asks where or for
+  a plural ("where can I sit down?": the chairs and the couch; "I need a place to sit":
+  the chairs). When the
   scene stores what its entities afford (``affordance`` attributes), the stored phrases
   that fit the need best select the entities instead, across categories.
 * **described**: the target noun names nothing the scene holds ("the vase" in a room
@@ -59,8 +60,10 @@ import numpy as np
 from causalsplat.reason._grammar import (
     ACTION_STOPWORDS,
     DETERMINERS,
+    FUNCTION_WORDS,
     PARTICLES,
     POSSESSIVES,
+    PRONOUNS,
     state_at,
 )
 from causalsplat.reason._mentions import NAMED, CategoryIndex, mention_at
@@ -135,6 +138,8 @@ TOP_K = 5
 #: A category that affords what the best one affords for a need joins it when it scores
 #: within this of the best.
 WIDEN = 0.05
+#: Words that end a need's request and begin what it is for ("a place | to sit").
+_REQUEST_ENDS = frozenset({"to", "for", "that"})
 #: Scores within this of the best are ties.
 TIE = 1e-6
 #: Dataset labels that name no kind of object (ScanNet's catch-all ``object``, NYU's
@@ -464,9 +469,10 @@ class Grounder:
 
     def _widen(self, ins: Instruction, ranked: Grounding) -> Grounding:
         """Every category that affords what the best one affords for this need, by the
-        lexicon's WordNet affordances: "where can I sit down?" takes the stools and the
-        couch with the chairs."""
-        if not ranked.chosen:
+        lexicon's WordNet affordances, when the need asks for every kind
+        (:func:`asks_every_kind`): "where can I sit down?" takes the stools and the couch
+        with the chairs; "I need a place to sit down" the chairs."""
+        if not ranked.chosen or not asks_every_kind(ins, self.lexicon):
             return ranked
         lex = self.lexicon
         offered = sorted({p for c in ranked.chosen for p in lex.affordances(c)})
@@ -749,6 +755,28 @@ def need_words(ins: Instruction) -> tuple[str, ...]:
     if tail and tail[-1] in PARTICLES and (not words or words[-1] != tail[-1]):
         words.append(tail[-1])
     return tuple(words) or ins.action
+
+
+def asks_every_kind(ins: Instruction, lexicon: Lexicon) -> bool:
+    """The need asks where ("where can I sit down?") or for a plural ("places to sit",
+    "seats for my guests"): every kind of object that meets it is an answer. Asked for
+    one thing ("a place to sit", "something to sit on", "somewhere to sit") it is the
+    kind that meets it best.
+
+    The request is the words before the purpose clause, or before its first "to" / "for".
+    """
+    tokens = ins.main_tokens or ins.tokens
+    end = len(tokens) if ins.purpose_start is None else ins.purpose_start
+    for word in tokens[:end]:
+        if word in _REQUEST_ENDS:
+            break
+        if word == "where":
+            return True
+        if (len(word) > 3 and word.isalpha() and word.endswith("s") and not word.endswith("ss")
+                and word not in FUNCTION_WORDS and word not in PRONOUNS
+                and lexicon.lemma(word) != word):  # fmt: skip
+            return True
+    return False
 
 
 def purpose_tokens(ins: Instruction) -> tuple[str, ...]:
