@@ -115,7 +115,9 @@ class Metric(StrEnum):
     ("the chair at the end of the table", "the stool at the corner of the counter");
     ``z`` / ``x`` / ``y``:
     centroid coordinate;
-    ``height``: vertical bounding-box extent; ``volume``: bounding-box volume;
+    ``height``: vertical bounding-box extent; ``length``: the longer horizontal side of
+    the bounding box ("the longest table", "the narrow window"); ``volume``: bounding-box
+    volume;
     ``rightward``: how far to the right of the step's ``viewpoint`` (the observer at ``eye``
     looking at ``target``) the centroid lies, horizontally, so ``argmax`` is the rightmost,
     ``argmin`` the leftmost and ``middle`` the one in the middle as the observer sees them
@@ -137,6 +139,7 @@ class Metric(StrEnum):
     CORNER_DISTANCE = "corner_distance"
     Z = "z"
     HEIGHT = "height"
+    LENGTH = "length"
     VOLUME = "volume"
     X = "x"
     Y = "y"

@@ -381,8 +381,8 @@ def metric_value(
     view: tuple[tuple[N, N], tuple[N, N]] | None = None,
 ) -> N:
     """An entity's value for a non-distance metric (``x``, ``y``, ``z``, ``height``,
-    ``volume``, ``rightward``, ``forward``). ``rightward`` and ``forward`` need ``view``,
-    ``(eye, target)`` (x, y): with ``f = target - eye`` and ``d = centroid - eye``,
+    ``length``, ``volume``, ``rightward``, ``forward``). ``rightward`` and ``forward`` need
+    ``view``, ``(eye, target)`` (x, y): with ``f = target - eye`` and ``d = centroid - eye``,
     ``rightward`` is ``d·(f.y, -f.x)`` (``dx*fy - dy*fx``), larger to the observer's right,
     and ``forward`` is ``d·f`` (``dx*fx + dy*fy``), larger the farther ahead.
 
@@ -390,6 +390,8 @@ def metric_value(
     >>> [metric_value(PY, m, (1.0, 3.0, 0.0), (0, 0, 0), (1, 1, 1), view)
     ...  for m in ("rightward", "forward")]
     [2.0, 6.0]
+    >>> metric_value(PY, "length", (0.0, 0.0, 0.0), (0, 0, 0), (0.5, 2.0, 1.0))
+    2.0
     """
     if metric in ("rightward", "forward"):
         if view is None:
@@ -408,6 +410,9 @@ def metric_value(
         return centroid[2]
     if metric == "height":
         return alg.sub(hi[2], lo[2])
+    if metric == "length":
+        sx, sy = alg.sub(hi[0], lo[0]), alg.sub(hi[1], lo[1])
+        return alg.select(alg.ge(sx, sy), sx, sy)
     if metric == "volume":
         sx, sy, sz = alg.sub(hi[0], lo[0]), alg.sub(hi[1], lo[1]), alg.sub(hi[2], lo[2])
         return alg.mul(alg.mul(sx, sy), sz)

@@ -210,10 +210,14 @@ FALL_TRIGGERS = re.compile(
 )
 CLOSURE_TRIGGERS = re.compile(r"\b(?:stacked|everything|all (?:the )?things|piled)\b")
 
-#: Superlatives and size adjectives: word -> (metric, argmax or argmin).
+#: Superlatives and size adjectives: word -> (metric, argmax or argmin). Long, wide and
+#: narrow rank by the longer side of the footprint (a table's length, a window's width);
+#: thin, skinny and slender say what shape a thing has, not which is longer, and are not
+#: among them.
 _BIG, _SMALL = (Metric.VOLUME, Op.ARGMAX), (Metric.VOLUME, Op.ARGMIN)
 _TALL, _SHORT = (Metric.HEIGHT, Op.ARGMAX), (Metric.HEIGHT, Op.ARGMIN)
 _HIGH, _LOW = (Metric.Z, Op.ARGMAX), (Metric.Z, Op.ARGMIN)
+_LONG, _NARROW = (Metric.LENGTH, Op.ARGMAX), (Metric.LENGTH, Op.ARGMIN)
 EXTREMES: dict[str, tuple[Metric, Op]] = {
     "largest": _BIG, "biggest": _BIG, "larger": _BIG, "bigger": _BIG, "large": _BIG,
     "big": _BIG, "huge": _BIG,
@@ -222,6 +226,9 @@ EXTREMES: dict[str, tuple[Metric, Op]] = {
     "shortest": _SHORT, "shorter": _SHORT, "short": _SHORT,
     "highest": _HIGH, "higher": _HIGH, "upper": _HIGH, "uppermost": _HIGH, "topmost": _HIGH,
     "lowest": _LOW, "lower": _LOW, "bottommost": _LOW,
+    "longest": _LONG, "longer": _LONG, "long": _LONG, "widest": _LONG, "wider": _LONG,
+    "wide": _LONG,
+    "narrowest": _NARROW, "narrower": _NARROW, "narrow": _NARROW,
 }  # fmt: skip
 #: Words after which "to" opens an infinitive ("want to", "something to", "a place to").
 INFINITIVE_HEADS = frozenset({"want", "wants", "wanted", "need", "needs", "like", "love",

@@ -451,3 +451,24 @@ def test_horizontal_distance_ignores_height(make_any: MakeExecutor) -> None:
     ]
     for body, expected in cases:
         assert executor.run(GraphQuery.from_text(head + body)).answer == expected, body
+
+
+def test_length_is_the_longer_horizontal_side(make_any: MakeExecutor) -> None:
+    """A bench long along x, a table long along y, a tall cabinet: length is the longer of
+    the footprint's two sides, whichever axis; height and volume do not enter it."""
+    ents = (
+        Entity(0, "thing", (0.0, 0.0, 0.25), (-1.0, -0.2, 0.0), (1.0, 0.2, 0.5)),  # 2.0 long
+        Entity(1, "thing", (3.0, 0.0, 0.4), (2.5, -1.2, 0.0), (3.5, 1.2, 0.8)),  # 2.4 long
+        Entity(2, "thing", (6.0, 0.0, 1.0), (5.7, -0.3, 0.0), (6.3, 0.3, 2.0)),  # 0.6, tall
+    )
+    executor = make_any(SceneGraph(SceneMeta("lengths"), ents))
+    head = 'query spatial\nv0 = scene()\nv1 = filter_category(v0, "thing")\n'
+    cases = [
+        ("v2 = argmax(v1, length)", (1,)),
+        ("v2 = argmax(v1, length, k=2)", (0, 1)),
+        ("v2 = argmin(v1, length)", (2,)),
+        ("v2 = middle(v1, length)", (0,)),
+        ("v2 = argmax(v1, height)", (2,)),
+    ]
+    for body, expected in cases:
+        assert executor.run(GraphQuery.from_text(head + body)).answer == expected, body

@@ -668,3 +668,19 @@ def test_an_anchor_named_by_meaning_is_not_the_targets_own_kind() -> None:
     answer = REASONER.answer("the chair closest to the recliner", ctx)
     assert answer.entity_ids == (2,), answer.explanation
     assert 'filter_category(v0, "massage chair")' in answer.explanation
+
+
+def test_long_wide_and_narrow_rank_by_the_longer_side_of_the_footprint() -> None:
+    # two tables of one height: a long narrow one (2.4 x 0.6) and a square one (1.2 x 1.2,
+    # the larger by volume); a narrow window and a wide one
+    ctx = _room([FLOOR, (1, "table", (-2.0, 0.0, 0.4), (0.6, 2.4, 0.8)),
+                 (2, "table", (2.0, 0.0, 0.4), (1.2, 1.2, 0.8)),
+                 (3, "window", (0.0, 3.9, 1.5), (0.5, 0.1, 1.2)),
+                 (4, "window", (2.0, 3.9, 1.5), (1.8, 0.1, 1.0))])  # fmt: skip
+    for text in ("the long table", "the longest table", "the wider table"):
+        answer = REASONER.answer(text, ctx)
+        assert answer.entity_ids == (1,), text
+        assert Metric.LENGTH in {s.metric for s in answer.program.steps}, text
+    assert REASONER.answer("the large table", ctx).entity_ids == (2,)
+    assert REASONER.answer("the narrow window", ctx).entity_ids == (3,)
+    assert REASONER.answer("the wide window", ctx).entity_ids == (4,)
