@@ -874,6 +874,15 @@ class Planner:
         """Extremes, sides and ordinals among ``step`` (``base``: the phrase's candidates
         before relations)."""
         b = self.b
+        if (
+            np.extremes and np.extremes[0][0] is not Metric.Z and np.side in ("left", "right")
+            and not np.side_negated and (np.ordinal or 1) == 1 and not b.at_most_one(step)
+        ):  # fmt: skip
+            # "the tall lamp on the left", "the larger pillow on the far right": of those
+            # on that side, the tallest (largest)
+            return b.add(
+                np.extremes[0][1], self._side_half(step, np.side), metric=np.extremes[0][0]
+            )
         if np.extremes and not b.at_most_one(step):
             metric, direction = np.extremes[0]
             if metric is not Metric.Z or np.side not in ("left", "right"):
@@ -940,6 +949,15 @@ class Planner:
         if math.hypot(target[0] - eye[0], target[1] - eye[1]) < MIN_VIEW_DISTANCE:
             return None
         return {"eye": eye, "target": target}
+
+    def _side_half(self, step: int, side: str) -> int:
+        """The half of the candidates at ``step`` nearest the observer's ``side`` (of a
+        number the program does not know yet, as after a relation, the two nearest)."""
+        view = self._side_view(step)
+        n = len(self.b.ids[step]) if step in self.b.ids else 0
+        return self.b.add(Op.ARGMAX if side == "right" else Op.ARGMIN, step,
+                          metric=Metric.RIGHTWARD if view is not None else Metric.X,
+                          k=max(2, (n + 1) // 2), viewpoint=view)  # fmt: skip
 
     def _side(self, step: int, side: str, nth: int) -> int:
         """The ``nth`` candidate from the observer's ``side`` (``rightward`` seen from

@@ -684,3 +684,19 @@ def test_long_wide_and_narrow_rank_by_the_longer_side_of_the_footprint() -> None
     assert REASONER.answer("the large table", ctx).entity_ids == (2,)
     assert REASONER.answer("the narrow window", ctx).entity_ids == (3,)
     assert REASONER.answer("the wide window", ctx).entity_ids == (4,)
+
+
+def test_a_size_said_with_a_side_is_the_extreme_of_those_on_that_side() -> None:
+    # four lamps along the north wall, seen facing the window there: the two on the left
+    # are 1.5 and 1.0 m tall, the two on the right 1.8 and 0.5 m; "the tall lamp on the
+    # left" is the taller of the left two, not the tallest lamp (which is on the right)
+    ctx = _room([FLOOR, (1, "window", (0.0, 3.9, 1.5), (1.2, 0.1, 1.0)),
+                 (2, "lamp", (-3.0, 3.0, 0.75), (0.3, 0.3, 1.5)),
+                 (3, "lamp", (-1.0, 3.0, 0.5), (0.3, 0.3, 1.0)),
+                 (4, "lamp", (1.0, 3.0, 0.9), (0.3, 0.3, 1.8)),
+                 (5, "lamp", (3.0, 3.0, 0.25), (0.3, 0.3, 0.5))])  # fmt: skip
+    ask = REASONER.answer
+    assert ask("facing the window, the tall lamp on the left", ctx).entity_ids == (2,)
+    assert ask("facing the window, the short lamp on the left", ctx).entity_ids == (3,)
+    assert ask("facing the window, the smaller lamp on the right", ctx).entity_ids == (5,)
+    assert ask("facing the window, the tallest lamp", ctx).entity_ids == (4,)
