@@ -34,9 +34,9 @@ How the two signals combine, by what the instruction's target is:
   acts on is scored without the words that name it. The best category is taken, with
   every category tied with it (two labels of one kind of object share their facts) and
   every category within :data:`WIDEN` of it that affords, by the lexicon's WordNet
-  affordances, what the best one affords for this need, when the need asks where or for
-  a plural ("where can I sit down?": the chairs and the couch; "I need a place to sit":
-  the chairs). When the
+  affordances, what the best one affords for this need, when the need asks what, which
+  or where, or for a plural ("where can I sit down?": the chairs and the couch; "I need a
+  place to sit": the chairs). When the
   scene stores what its entities afford (``affordance`` attributes), the stored phrases
   that fit the need best select the entities instead, across categories.
 * **described**: the target noun names nothing the scene holds ("the vase" in a room
@@ -140,6 +140,8 @@ TOP_K = 5
 WIDEN = 0.05
 #: Words that end a need's request and begin what it is for ("a place | to sit").
 _REQUEST_ENDS = frozenset({"to", "for", "that"})
+#: Question words that ask for every answer there is ("what can I eat from?").
+_OPEN_QUESTIONS = frozenset({"what", "which", "where"})
 #: Scores within this of the best are ties.
 TIE = 1e-6
 #: Dataset labels that name no kind of object (ScanNet's catch-all ``object``, NYU's
@@ -758,19 +760,20 @@ def need_words(ins: Instruction) -> tuple[str, ...]:
 
 
 def asks_every_kind(ins: Instruction, lexicon: Lexicon) -> bool:
-    """The need asks where ("where can I sit down?") or for a plural ("places to sit",
-    "seats for my guests"): every kind of object that meets it is an answer. Asked for
-    one thing ("a place to sit", "something to sit on", "somewhere to sit") it is the
-    kind that meets it best.
+    """The need is a question of what, which or where ("where can I sit down?", "what can
+    I eat from?") or asks for a plural ("places to sit", "seats for my guests"): every
+    kind of object that meets it is an answer. Asked for one thing ("a place to sit",
+    "something to sit on", "somewhere to sit") it is the kind that meets it best.
 
-    The request is the words before the purpose clause, or before its first "to" / "for".
+    The request is the words before the purpose clause, or before its first "to", "for"
+    or "that" (:data:`_REQUEST_ENDS`).
     """
     tokens = ins.main_tokens or ins.tokens
     end = len(tokens) if ins.purpose_start is None else ins.purpose_start
     for word in tokens[:end]:
         if word in _REQUEST_ENDS:
             break
-        if word == "where":
+        if word in _OPEN_QUESTIONS:
             return True
         if (len(word) > 3 and word.isalpha() and word.endswith("s") and not word.endswith("ss")
                 and word not in FUNCTION_WORDS and word not in PRONOUNS

@@ -51,9 +51,11 @@ def test_embeddings_rank_and_feed_affordance_matching(room: SceneContext) -> Non
 
 @pytest.mark.skipif(not HAS_EMBED, reason="embed extra not installed")
 def test_a_need_asked_for_one_thing_takes_the_kind_that_fits_best(room: SceneContext) -> None:
-    # "where ...?" and plurals ask for every kind of seat; "a place", "something" for one
+    # questions of what, which, where and plurals ask for every kind of seat; "a place",
+    # "something" for one
     reasoner = OfflineReasoner(embeddings=True)
-    for text in ("where can I sit down?", "I need places to sit", "which things can I sit on?"):
+    for text in ("where can I sit down?", "what can I sit on?", "I need places to sit",
+                 "which things can I sit on?"):  # fmt: skip
         assert reasoner.answer(text, room).entity_ids == (5, 6, 7, 10), text
     for text in ("I need a place to sit down", "something to sit on", "somewhere to sit"):
         answer = reasoner.answer(text, room)
