@@ -950,24 +950,25 @@ class Planner:
             return None
         return {"eye": eye, "target": target}
 
+    def _toward(
+        self, step: int, side: str, k: int = 1, view: dict[str, list[float]] | None = None
+    ) -> int:
+        """The ``k`` candidates at ``step`` nearest the observer's ``side`` (``rightward``
+        seen from ``view``, :meth:`_side_view`; without a direction, along ``x``)."""
+        return self.b.add(Op.ARGMAX if side == "right" else Op.ARGMIN, step,
+                          metric=Metric.RIGHTWARD if view is not None else Metric.X,
+                          k=k if k > 1 else None, viewpoint=view)  # fmt: skip
+
     def _side_half(self, step: int, side: str) -> int:
         """The half of the candidates at ``step`` nearest the observer's ``side`` (of a
         number the program does not know yet, as after a relation, the two nearest)."""
-        view = self._side_view(step)
         n = len(self.b.ids[step]) if step in self.b.ids else 0
-        return self.b.add(Op.ARGMAX if side == "right" else Op.ARGMIN, step,
-                          metric=Metric.RIGHTWARD if view is not None else Metric.X,
-                          k=max(2, (n + 1) // 2), viewpoint=view)  # fmt: skip
+        return self._toward(step, side, max(2, (n + 1) // 2), self._side_view(step))
 
     def _side(self, step: int, side: str, nth: int) -> int:
-        """The ``nth`` candidate from the observer's ``side`` (``rightward`` seen from
-        :meth:`_side_view`; without a direction, the leftmost along ``x``)."""
-        b = self.b
+        """The ``nth`` candidate from the observer's ``side`` (:meth:`_toward`)."""
         view = self._side_view(step)
-        op = Op.ARGMAX if side == "right" else Op.ARGMIN
-        metric = Metric.RIGHTWARD if view is not None else Metric.X
         if nth <= 1:
-            return b.add(op, step, metric=metric, viewpoint=view)
-        upto = b.add(op, step, metric=metric, k=nth, viewpoint=view)
-        before = b.add(op, step, metric=metric, k=nth - 1, viewpoint=view)
-        return b.add(Op.DIFFERENCE, upto, before)
+            return self._toward(step, side, 1, view)
+        upto, before = self._toward(step, side, nth, view), self._toward(step, side, nth - 1, view)
+        return self.b.add(Op.DIFFERENCE, upto, before)
