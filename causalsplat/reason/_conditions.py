@@ -36,6 +36,7 @@ cushion?").
 from __future__ import annotations
 
 from causalsplat.reason._grammar import DETERMINERS
+from causalsplat.reason._text import NUMBER_WORDS
 
 #: Words that open a condition clause (the first token of a two-word one is the key).
 SUBORDINATORS = frozenset({"if", "when", "once", "after", "suppose", "supposing", "imagine",
@@ -111,11 +112,13 @@ def removes(tokens: tuple[str, ...]) -> bool:
     True
     >>> removes(("i", "take", "the", "lamp")), removes(("we", "haul", "the", "dresser", "away"))
     (False, True)
+    >>> removes(("you", "are", "looking", "at", "the", "2", "trash", "cans"))
+    False
     """
     lemmas = [lemma(t) for t in tokens]
     for i, lem in enumerate(lemmas):
-        if lem in _REMOVE_ALONE and not (i > 0 and tokens[i - 1] in DETERMINERS):
-            return True  # not a noun after its determiner ("the trash can", "a break")
+        if lem in _REMOVE_ALONE and not (i > 0 and _counts_or_determines(tokens[i - 1])):
+            return True  # not a noun after its determiner ("the trash can", "2 trash cans")
         if lem == "go" and i == len(tokens) - 1 and i > 0:
             return True  # "when the table goes": said of a thing, going is leaving
         nxt = lemmas[i + 1] if i + 1 < len(lemmas) else ""
@@ -124,6 +127,11 @@ def removes(tokens: tuple[str, ...]) -> bool:
         if lem in _MOVE and any(t in _AWAY for t in tokens[i + 1 : i + 6]):
             return True
     return False
+
+
+def _counts_or_determines(word: str) -> bool:
+    """A determiner or a number: what stands before a noun, never before a verb."""
+    return word in DETERMINERS or word in NUMBER_WORDS or word.isdigit()
 
 
 #: Auxiliaries and particles of a removal clause ("is", "were", "to be", "rid of").
@@ -136,11 +144,12 @@ _AUXILIARIES = frozenset({"is", "are", "was", "were", "be", "been", "being", "ge
 
 def _names_removed(clause: tuple[str, ...], k: int) -> bool:
     """Whether the clause's word ``k`` may name what is removed: not an agent, an auxiliary
-    or a verb, unless a noun: after a determiner ("the trash"), or "can" after one ("the
-    trash can"; the modal's subject has no determiner right before the modal's noun)."""
+    or a verb, unless a noun: after a determiner or a number ("the trash"), or "can" or
+    "cans" after one ("the trash can", "two trash cans"; the modal's subject has no
+    determiner right before the modal's noun)."""
     t = clause[k]
-    noun_after_determiner = k > 0 and clause[k - 1] in DETERMINERS
-    if t == "can" and k > 1 and clause[k - 2] in DETERMINERS:
+    noun_after_determiner = k > 0 and _counts_or_determines(clause[k - 1])
+    if t in ("can", "cans") and k > 1 and _counts_or_determines(clause[k - 2]):
         return True
     if t in AGENTS or t in _AUXILIARIES:
         return False
