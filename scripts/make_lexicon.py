@@ -18,6 +18,8 @@ Reads the plain database files of WordNet (Debian package ``wordnet-base``: ``ap
 * ``colors``: single-word colour names (hyponyms of ``colour``);
 * ``exceptions``: the irregular inflections of ``noun.exc``, ``verb.exc`` and ``adj.exc``
   (inflected form -> lemma);
+* ``words``: every single-word lemma of WordNet (nouns, verbs, adjectives and adverbs),
+  sorted and space-separated: the English words the reasoner tells from misspellings;
 * ``licence``: the WordNet 3.0 licence, which must accompany every copy of the data.
 
 Usage::
@@ -43,7 +45,7 @@ from pathlib import Path
 
 WORDNET = Path("/usr/share/wordnet")
 OUT = Path(__file__).resolve().parent.parent / "causalsplat" / "reason" / "data" / "lexicon.json.gz"
-FORMAT = "causalsplat-lexicon/3"
+FORMAT = "causalsplat-lexicon/4"
 
 #: Roots of the noun subtrees that are shipped: (lemma, sense number in WordNet 3.0).
 NOUN_ROOTS: tuple[tuple[str, int], ...] = (
@@ -205,6 +207,14 @@ def read_exceptions(root: Path) -> dict[str, str]:
     return dict(sorted(out.items()))
 
 
+def single_words(root: Path) -> str:
+    """Every single-word lemma of the four ``index.<pos>`` files, sorted, space-separated."""
+    words: set[str] = set()
+    for pos in ("noun", "verb", "adj", "adv"):
+        words.update(w for w in read_index(root, pos) if w.isalpha() and w.isascii())
+    return " ".join(sorted(words))
+
+
 def sense(index: dict[str, list[str]], name: str) -> str:
     """The offset of ``lemma.n.N``."""
     lemma, _pos, number = name.rsplit(".", 2)
@@ -286,6 +296,7 @@ def build(root: Path) -> dict[str, object]:
         "affordances": affordances,
         "colors": colors,
         "exceptions": read_exceptions(root),
+        "words": single_words(root),
     }
 
 

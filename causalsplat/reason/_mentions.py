@@ -15,11 +15,14 @@ similarity >= 0.8 with a category: 0.6, so ``refrigerator`` finds ScanNet's
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
+from causalsplat.colors import WORDS as COLOUR_WORDS
 from causalsplat.colors import is_color_word
 from causalsplat.reason._grammar import (
+    CLOSED_CLASS,
     DETERMINERS,
     EXTREMES,
     FUNCTION_WORDS,
@@ -95,6 +98,20 @@ class CategoryIndex:
                 words = tokenize(alias)
                 self._put(" ".join(words), category, ALIAS)
                 self._put(lexicon.phrase_lemma(words), category, ALIAS)
+
+    @functools.cached_property
+    def spelling_vocabulary(self) -> frozenset[str]:
+        """The words a misspelling is corrected to (:mod:`~causalsplat.reason._spelling`):
+        those of the scene's category names, colour names and side and size words."""
+        words = {w for c in self.categories for w in c.split()}
+        return frozenset(words | set(COLOUR_WORDS) | set(SIDES) | set(EXTREMES))
+
+    def is_word(self, word: str) -> bool:
+        """Whether ``word`` is a word, never a misspelling: an English word WordNet knows,
+        a function word, or (with a plural ``s``) a word of the scene's category names."""
+        if word in CLOSED_CLASS or self.lexicon.is_word(word):
+            return True
+        return word.endswith("s") and word[:-1] in self.spelling_vocabulary
 
     def _put(self, phrase: str, category: str, score: float) -> None:
         if not phrase:

@@ -12,6 +12,8 @@ used), and never touches the network.
 True
 >>> "sit" in lex.affordances("armchair")
 True
+>>> lex.is_word("rectangular"), lex.is_word("pushed"), lex.is_word("chiar")
+(True, True, False)
 """
 
 from __future__ import annotations
@@ -26,7 +28,7 @@ from typing import Any
 
 from causalsplat.reason.errors import ReasonError
 
-FORMAT = "causalsplat-lexicon/3"
+FORMAT = "causalsplat-lexicon/4"
 
 _NOUN_RULES = (("ses", "s"), ("xes", "x"), ("zes", "z"), ("ches", "ch"), ("shes", "sh"),
                ("men", "man"), ("ies", "y"), ("s", ""))  # fmt: skip
@@ -67,6 +69,8 @@ class Lexicon:
         self.colors: frozenset[str] = frozenset(document["colors"])
         self._seeds: dict[str, list[int]] = document["affordances"]
         self._afford_of: dict[int, tuple[str, ...]] = {}
+        self._words_text: str = document["words"]
+        self._words: frozenset[str] | None = None
         for phrase, synsets in self._seeds.items():
             for s in synsets:
                 self._afford_of[s] = (*self._afford_of.get(s, ()), phrase)
@@ -121,6 +125,23 @@ class Lexicon:
             return whole
         items[-1] = self.lemma(items[-1], "n")
         return " ".join(items)
+
+    def is_word(self, word: str) -> bool:
+        """Whether ``word`` is an English word WordNet knows, in any part of speech and any
+        regular or irregular inflection (``"pushed"``, ``"shelves"``, ``"taller"``); a
+        misspelling (``"chiar"``) is not. The word list is split when first asked."""
+        if self._words is None:
+            self._words = frozenset(self._words_text.split())
+        words = self._words
+        word = word.lower()
+        if word in words or word in self._exceptions:
+            return True
+        for suffix, ending in (*_NOUN_RULES, *_VERB_RULES, *_ADJ_RULES, ("ly", ""), ("ily", "y")):
+            if word.endswith(suffix) and len(word) > len(suffix) + 1:
+                base = word[: -len(suffix)] + ending
+                if base in words or (len(base) > 2 and base[-1] == base[-2] and base[:-1] in words):
+                    return True
+        return False
 
     # -- nouns ---------------------------------------------------------------------------
 

@@ -228,6 +228,11 @@ def scored_candidates(
 
 
 def _describe(ins: Instruction) -> str:
+    read = "".join(f"; {written!r} read as {read!r}" for written, read in ins.corrected)
+    return _reading(ins) + read
+
+
+def _reading(ins: Instruction) -> str:
     if ins.kind == "counterfactual":
         return f"counterfactual: remove {', '.join(np.text for np in ins.removed)}"
     if ins.kind == "action":

@@ -17,6 +17,7 @@ from causalsplat.reason import _grammar as g
 from causalsplat.reason._conditions import asks_what_follows, moves_away, split_condition
 from causalsplat.reason._items import Item, Modifier, read_items
 from causalsplat.reason._mentions import NAMED, CategoryIndex, Mention
+from causalsplat.reason._spelling import correct
 from causalsplat.reason._text import NUMBER_WORDS, tokenize
 from causalsplat.reason.lexicon import Lexicon
 from queries import Metric, Op
@@ -107,6 +108,8 @@ class Instruction:
         main_tokens: the tokens without the viewpoint clause (set for needs).
         command: the need is said as a command ("store my dishes", "sit on the couch"):
             its purpose clause is the whole sentence.
+        corrected: misspelt words read as another, ``(written, read)``
+            (:mod:`~causalsplat.reason._spelling`); ``tokens`` hold the words as read.
     """
 
     text: str
@@ -123,6 +126,7 @@ class Instruction:
     purpose_start: int | None = None
     main_tokens: tuple[str, ...] = ()
     command: bool = False
+    corrected: tuple[tuple[str, str], ...] = ()
 
     @property
     def is_intrinsic(self) -> bool:
@@ -138,7 +142,15 @@ class Instruction:
 
 def parse_instruction(text: str, index: CategoryIndex) -> Instruction:
     """Stage 1 (module docstring)."""
-    tokens = tokenize(text)
+    tokens, corrected = correct(
+        tokenize(text), index.spelling_vocabulary, index.is_word, index.categories
+    )
+    if corrected:
+        return replace(_parse(text, tokens, index), corrected=corrected)
+    return _parse(text, tokens, index)
+
+
+def _parse(text: str, tokens: tuple[str, ...], index: CategoryIndex) -> Instruction:
     condition = split_condition(tokens)
     if condition is not None:
         return _counterfactual(text, tokens, condition, index)

@@ -38,7 +38,7 @@ def test_shipped_file_keeps_the_wordnet_licence() -> None:
     document = json.loads(gzip.decompress(DATA.read_bytes()))
     assert "Princeton University" in document["licence"]
     assert "WordNet 3.0 Copyright 2006 by Princeton University" in document["licence"]
-    assert document["format"] == "causalsplat-lexicon/3"
+    assert document["format"] == "causalsplat-lexicon/4"
 
 
 @pytest.mark.skipif(not Path("/usr/share/wordnet/data.noun").exists(), reason="no wordnet-base")
@@ -90,3 +90,46 @@ def test_a_kind_noun_before_to_and_a_verb_opens_a_purpose(room: SceneContext) ->
     # "to" before no verb, or in a sentence that wants nothing, opens no purpose
     assert parse("the table has a cup next to it", room).kind == "refer"
     assert parse("the box with a lid to the left of the cup", room).kind == "refer"
+
+
+def test_misspelt_words_are_read_as_the_scene_word_they_were_meant_to_be(
+    room: SceneContext,
+) -> None:
+    reasoner = OfflineReasoner()
+
+    def answer(text: str) -> tuple[tuple[int, ...], str]:
+        a = reasoner.answer(text, room)
+        return a.entity_ids, a.explanation.splitlines()[0]
+
+    right, _ = answer("the chair closest to the couch")
+    assert right == (5,)
+    ids, reading = answer("the chiar closest to the cuoch")
+    assert ids == right
+    assert "'chiar' read as 'chair'" in reading and "'cuoch' read as 'couch'" in reading
+    # a colour word misspelt still names the colour, and the blue cup is not the red one
+    assert answer("the bule cup")[0] == answer("the blue cup")[0] == (4,)
+    # real words are never changed: "hair" is a word, one edit from "chair" or not
+    ids, reading = answer("the hair closest to the couch")
+    assert reading == "read as: refer 'hair'; closest 'couch'" and ids != right
+    assert LEX.is_word("tabel") is False and LEX.is_word("tables") is True
+
+
+def test_a_run_together_category_name_is_read_as_its_words() -> None:
+    from causalsplat.reason._spelling import correct
+
+    vocabulary = frozenset({"trash", "can", "table"})
+    tokens = ("the", "trashcans", "by", "the", "tabel")
+    assert correct(tokens, vocabulary, LEX.is_word, ("trash can", "table")) == (
+        ("the", "trash", "cans", "by", "the", "table"),
+        (("trashcans", "trash cans"), ("tabel", "table")),
+    )
+
+
+def test_a_count_before_a_noun_of_removal_is_no_removal(room: SceneContext) -> None:
+    reasoner = OfflineReasoner()
+    looked = reasoner.answer(
+        "if you are looking at the 2 chairs, the correct one is on the right", room
+    )
+    assert not looked.explanation.startswith("read as: counterfactual")
+    removed = reasoner.answer("if the 2 trash cans are removed, what falls?", room)
+    assert removed.explanation.splitlines()[0] == "read as: counterfactual: remove trash can"
