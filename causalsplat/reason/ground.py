@@ -50,6 +50,7 @@ When the best score is below :data:`FITS`, nothing is taken: the answer is an ex
 
 from __future__ import annotations
 
+import itertools
 import re
 from collections import Counter
 from dataclasses import dataclass, field, replace
@@ -598,7 +599,9 @@ class Grounder:
             evidence = self.texts[int(which[k])] if self.texts else c
             cands.append(Candidate(c, m - PATIENT * named, m, named, evidence))
         cands.sort(key=lambda c: (-c.score, c.category))
-        reference = self._reference(query) if need and cands else None
+        reference = None
+        if need and cands:
+            reference = self._reference(query, self._acted_on_anywhere(verbs))
         eligible = [c for c in cands if c.category not in anchors]
         if verbs is not None and verbs.verbs and patient is None:
             otherwise = self._does_otherwise(verbs)
@@ -719,9 +722,28 @@ class Grounder:
             return ranked
         return replace(ranked, chosen=())
 
-    def _reference(self, query: str) -> tuple[str, float] | None:
+    def _acted_on_anywhere(self, verbs: NeedVerbs | None) -> frozenset[str]:
+        """Kinds the need's verb acts on by name (its objects, one or two words), other
+        than those people do that verb to ("throw this paper away": paper, which is not
+        what throws; "play the guitar": not the guitar)."""
+        if verbs is None or not verbs.verbs or not verbs.objects:
+            return frozenset()
+        words = verbs.objects
+        said = {*words, *(f"{a} {b}" for a, b in itertools.pairwise(words))}
+        knowledge = self._knowledge()
+        return frozenset(
+            kind for kind in said
+            if not any(affords_verb(v, facts_for(kind, knowledge, self.lexicon), self.lexicon)
+                       for v in verbs.verbs)
+        )  # fmt: skip
+
+    def _reference(
+        self, query: str, acted: frozenset[str] = frozenset()
+    ) -> tuple[str, float] | None:
         """What would meet a need best anywhere: the best category of the knowledge table
-        that bounds no room and names a kind of object, or ``None`` without vectors."""
+        that bounds no room, names a kind of object and is not what the need acts on
+        (``acted``: :meth:`_acted_on_anywhere`; its name makes it score high, not what it
+        does), or ``None`` without vectors."""
         table = self.scorer.table_scores(query)
         if table is None:
             return None
@@ -729,6 +751,8 @@ class Grounder:
         best: tuple[str, float] | None = None
         for name, score in zip(names, scores, strict=True):
             if name in UNSPECIFIC or self.ctx.config.is_structural(name):
+                continue
+            if acted and self.lexicon.phrase_lemma(name.split()) in acted:
                 continue
             if best is None or score > best[1]:
                 best = (name, float(score))

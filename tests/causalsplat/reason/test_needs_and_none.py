@@ -257,6 +257,9 @@ def test_needs_on_scene0000(reasoner: OfflineReasoner) -> None:
     assert "shower" not in cats("I need warm air to dry my hair")
     for text in ("which thing needs watering?", "where can the baby play?", "I'm hot"):
         cats(text)
+    # what the need acts on (the paper) is not what would meet it best anywhere: held to
+    # paper's score, the trash cans fell short and nothing was answered
+    assert cats("I need to throw this paper away.") == {"trash can"}
 
 
 def test_colour_programs_agree_on_every_executor(tmp_path: Path) -> None:
