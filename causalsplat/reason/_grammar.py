@@ -271,12 +271,13 @@ _DEGREE = frozenset({"so", "very", "too", "really", "quite", "a", "bit", "little
                      "kind", "of", "super", "freaking", "extremely"})  # fmt: skip
 
 
-#: Words that may follow a state said of someone ("I'm cold | in here", "hot | and tired").
+#: Words that may follow a state said of someone ("I'm cold | in here", "hot | and tired",
+#: "too dark | to read").
 _AFTER_STATE = frozenset({"in", "here", "and", "now", "today", "tonight", "but", "so", "out",
                           "outside", "inside", "right", "again", "what", "where", "how",
                           "anything", "is", "there", "can", "could", "any", "all", "lately",
                           "already", "too", "as", "because", "after", "from", "since",
-                          "this"})  # fmt: skip
+                          "this", "to", "for"})  # fmt: skip
 #: Who or what a state is said of: people, and the room they are in.
 _STATE_SUBJECTS = frozenset({"i", "we", "you", "he", "she", "they", "it", "everyone",
                              "everybody", "room", "here", "place", "house", "apartment",

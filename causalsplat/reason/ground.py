@@ -82,7 +82,12 @@ from causalsplat.reason.context import SceneContext
 from causalsplat.reason.knowledge import Knowledge, ObjectFacts
 from causalsplat.reason.lexicon import Lexicon
 from causalsplat.reason.meaning import MeaningScorer
-from causalsplat.reason.parse import Constraint, Instruction, NounPhrase
+from causalsplat.reason.parse import (
+    Constraint,
+    Instruction,
+    NounPhrase,
+    without_blocked_activity,
+)
 
 if TYPE_CHECKING:
     from collections.abc import Callable, Iterable
@@ -836,7 +841,7 @@ def _without_relations(ins: Instruction, constraints: Iterable[Constraint]) -> s
     context = _context_end(ins)
     if context:
         spans.append((0, context))
-    if not spans or not ins.main_tokens:
+    if not ins.main_tokens or (not spans and without_blocked_activity(ins.tokens) == ins.tokens):
         return ins.text.strip()
     kept = [t for i, t in enumerate(ins.main_tokens) if not any(a <= i < b for a, b in spans)]
     words = [t for t in kept if t not in (",", ".")]

@@ -155,6 +155,7 @@ def _parse(text: str, tokens: tuple[str, ...], index: CategoryIndex) -> Instruct
     if condition is not None:
         return _counterfactual(text, tokens, condition, index)
     view_tokens, main_tokens = _split_viewpoint(tokens)
+    main_tokens = without_blocked_activity(main_tokens)
     view = _viewpoint(view_tokens, index)
     viewpoint, standing = view.entity, view.standing
     items = read_items(main_tokens, index, view_tokens)
@@ -245,6 +246,27 @@ def _parse(text: str, tokens: tuple[str, ...], index: CategoryIndex) -> Instruct
     return Instruction(text, tokens, kind, target, viewpoint=viewpoint, standing_at=standing,
                        observer_at=view.observer,
                        closure=closure)  # fmt: skip
+
+
+def without_blocked_activity(tokens: tuple[str, ...]) -> tuple[str, ...]:
+    """``tokens`` without the activity a state is too much for ("it's too hot | to work in
+    here", "too dark | for reading"): the need is to mend the state, and the activity's
+    words would pull the answer towards it (the desk, not the fan). The clause boundary
+    after it and what follows are kept.
+
+    >>> without_blocked_activity(("it", "is", "too", "hot", "to", "work", "in", "here"))
+    ('it', 'is', 'too', 'hot')
+    >>> without_blocked_activity(("too", "dark", "to", "read", ",", "what", "can", "i", "do"))
+    ('too', 'dark', ',', 'what', 'can', 'i', 'do')
+    >>> without_blocked_activity(("keep", "it", "cold", "to", "serve"))
+    ('keep', 'it', 'cold', 'to', 'serve')
+    """
+    for i in range(1, len(tokens) - 1):
+        if tokens[i - 1] == "too" and tokens[i + 1] in ("to", "for") and g.state_at(tokens, i):
+            end = next((j for j in range(i + 1, len(tokens)) if tokens[j] in (",", ".", "?")),
+                       len(tokens))  # fmt: skip
+            return (*tokens[: i + 1], *tokens[end:])
+    return tokens
 
 
 def _counterfactual(

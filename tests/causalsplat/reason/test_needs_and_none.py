@@ -97,6 +97,13 @@ def test_the_scene_s_own_affordances_are_held_to_what_the_need_asks(
     assert cook.entity_ids and set(cook.categories) <= {"stove", "pot"}, cook.explanation
 
 
+def test_the_activity_a_state_is_too_much_for_is_no_need(room: SceneContext) -> None:
+    reasoner = OfflineReasoner()
+    for text in ("It's too dark in here.", "It's too dark to read in here.",
+                 "it is too dark for reading, what can I do?"):  # fmt: skip
+        assert reasoner.answer(text, room).categories == ("lamp",), text
+
+
 def test_a_state_of_a_thing_is_no_need(room: SceneContext) -> None:
     # "dark" of a thing describes it; of the room it calls for light
     assert LEXICAL.parse("this is dark and in front of the couch", room).kind == "refer"
@@ -260,6 +267,8 @@ def test_needs_on_scene0000(reasoner: OfflineReasoner) -> None:
     # what the need acts on (the paper) is not what would meet it best anywhere: held to
     # paper's score, the trash cans fell short and nothing was answered
     assert cats("I need to throw this paper away.") == {"trash can"}
+    # too hot to work: the need is to cool down, not a desk to work at
+    assert cats("it's too hot to work in here") in ({"window"}, {"shower"})
 
 
 def test_colour_programs_agree_on_every_executor(tmp_path: Path) -> None:
