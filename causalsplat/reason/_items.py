@@ -239,6 +239,33 @@ def _compound(
     return mods
 
 
+#: Words after "from" that say which end a count starts at, not what it is counted from.
+_COUNT_STARTS = frozenset({"left", "right", "top", "bottom", "end", "front", "back", "middle",
+                           "center", "centre", "far", "other", "side", "near", "each",
+                           "either", "your", "my", "our", "here", "there", "this", "north",
+                           "south", "east", "west", "northeast", "northwest", "southeast",
+                           "southwest", "northern", "southern", "eastern", "western"})  # fmt: skip
+
+
+def _counted_from(tokens: tuple[str, ...], i: int) -> bool:
+    """Whether ``tokens[i]`` is the "from" of a count from a thing: "the second stool from
+    the window", "the 2nd desk from the door" (the second closest to it), not from an end
+    or side ("third from the left", "second from the top") nor from a place one comes
+    from ("the first chair from your left").
+
+    >>> _counted_from(("the", "second", "stool", "from", "the", "window"), 3)
+    True
+    >>> _counted_from(("the", "second", "from", "the", "left"), 2)
+    False
+    """
+    if tokens[i] != "from" or not any(t in ORDINALS for t in tokens[max(0, i - 3) : i]):
+        return False
+    j = i + 1
+    while j < len(tokens) and tokens[j] in ("the", "a", "an"):
+        j += 1
+    return j < len(tokens) and tokens[j].isalpha() and tokens[j] not in _COUNT_STARTS
+
+
 def read_items(
     tokens: tuple[str, ...], index: CategoryIndex, before: tuple[str, ...] = ()
 ) -> list[Item]:
@@ -330,6 +357,12 @@ def read_items(
             # the leftmost or rightmost (a position along two axes)
             metric, direction = g.EXTREMES[_POSITION_ADJECTIVES[t]]
             pending.append((i, Modifier("extreme", t, direction=direction, metric=metric)))
+            i += 1
+            continue
+        if _counted_from(tokens, i):
+            # "the second stool from the window": the second closest to it
+            flush()
+            items.append(Item(i, i + 1, cue=g.Cue("closest", i, i + 1)))
             i += 1
             continue
         cue = g.find_cue(tokens, tuple(offsets), joined, i)

@@ -133,3 +133,21 @@ def test_a_count_before_a_noun_of_removal_is_no_removal(room: SceneContext) -> N
     assert not looked.explanation.startswith("read as: counterfactual")
     removed = reasoner.answer("if the 2 trash cans are removed, what falls?", room)
     assert removed.explanation.splitlines()[0] == "read as: counterfactual: remove trash can"
+
+
+def test_an_ordinal_counted_from_a_thing_ranks_by_distance_to_it(room: SceneContext) -> None:
+    reasoner = OfflineReasoner()
+
+    def answer(text: str) -> tuple[tuple[int, ...], str]:
+        a = reasoner.answer(text, room)
+        return a.entity_ids, a.explanation.splitlines()[0]
+
+    # chairs 5, 6, 7 are 2.6, 4.2 and 5.0 m from the door
+    assert answer("the second chair from the door") == (
+        (6,),
+        "read as: refer 'chair'; closest 'door'",
+    )
+    assert answer("the chair third from the door")[0] == (7,)
+    assert answer("the first chair from the door")[0] == (5,)
+    # from a side or an end it is a count along that side, as before
+    assert answer("the second chair from the left")[1] == "read as: refer 'chair'; side left #2"
