@@ -93,8 +93,8 @@ SHADE_MIX = 0.45
 #: Words that make a colour lighter or darker ("light blue", "dark brown"); said of a
 #: thing alone ("the dark couch", "a light-coloured table") they name its lightness.
 SHADES: dict[str, str] = {
-    "light": "light", "lighter": "light", "pale": "light", "pastel": "light",
-    "dark": "dark", "darker": "dark", "deep": "dark",
+    "light": "light", "lighter": "light", "lightest": "light", "pale": "light",
+    "pastel": "light", "dark": "dark", "darker": "dark", "darkest": "dark", "deep": "dark",
 }  # fmt: skip
 #: A term names a colour when it is within this much (weighted Delta E) of the nearest term.
 NAME_MARGIN = 12.0

@@ -39,8 +39,8 @@ _SURFACES = frozenset({"floor", "ceiling", "wall", "roof"})
 #: Words after a shade that make it the thing's lightness ("dark-coloured", "light toned").
 _COLOURED = frozenset({"colored", "coloured", "color", "colour", "toned", "tone", "hued"})
 #: Shade words that name a lightness by themselves ("the dark couch", "it is pale"):
-#: "light" is also a thing, "deep" a depth.
-_LONE_SHADES = frozenset({"dark", "darker", "pale"})
+#: "light" is also a thing, "deep" a depth; "lighter" and the superlatives compare.
+_LONE_SHADES = frozenset({"dark", "darker", "darkest", "lighter", "lightest", "pale"})
 #: Nouns the scene holds no entity for (places and people) whose modifiers describe them,
 #: never the target: "the pillow in the dark corner", "a monitor in a dark room", "the bin
 #: near the tall man"; and "in <colour>" after one of them is what they wear ("the chair

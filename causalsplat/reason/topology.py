@@ -423,13 +423,15 @@ class Planner:
     def _lightness(self, step: int, word: str, shade: str | None) -> int:
         """A shade said alone ("the dark couch", "the lighter-coloured table"): the
         candidates within :data:`LIGHTNESS_MARGIN` of the darkest or lightest stored
-        colour. Unchanged unless every candidate stores a colour and they differ."""
+        colour; compared ("the darker one", "the lightest stool"), the darkest or lightest
+        alone. Unchanged unless every candidate stores a colour and they differ."""
         b = self.b
         ids = self.ids[step]
         known = self._colours(ids)
         if len(known) < 2 or len(known) < len(ids):
             return step
-        keep = self._darkest(known, shade)
+        compared = word.split()[0].endswith(("er", "est"))
+        keep = self._darkest(known, shade, margin=0.0 if compared else LIGHTNESS_MARGIN)
         if len(keep) == len(ids):
             return step
         b.note(f"{word}: {len(keep)} of {len(ids)} candidates by lightness")

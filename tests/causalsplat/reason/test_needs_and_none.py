@@ -344,6 +344,26 @@ def test_shades_make_a_colour_lighter_or_darker_and_alone_name_its_lightness(
     assert answer.entity_ids == expected, answer.explanation
 
 
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [("the darkest stool", (1,)), ("the darker stool", (1,)), ("the lightest stool", (3,)),
+     ("the lighter of the stools", (3,)), ("the stool that is darker", (1,)),
+     ("the dark stool", (1, 2))],
+)  # fmt: skip
+def test_a_compared_shade_takes_the_darkest_or_lightest_alone(
+    text: str, expected: tuple[int, ...]
+) -> None:
+    # brown stools of L* 26, 33 and 45: "dark" keeps those within 10 of the darkest (then
+    # one of them is taken), "darker" and "darkest" the darkest alone
+    ctx = SceneContext(objects_to_scene_graph(parse_objects(_coloured(
+        ("stool", 0, (88, 57, 30)), ("stool", 3, (107, 72, 39)), ("stool", 6, (126, 100, 70))
+    ))))  # fmt: skip
+    answer = LEXICAL.answer(text, ctx)
+    assert set(answer.entity_ids) <= set(expected) and answer.entity_ids, answer.explanation
+    if len(expected) == 1:
+        assert answer.entity_ids == expected
+
+
 def test_the_light_is_still_a_thing() -> None:
     # "light" before a verb is the lamp, not a shade of the next word
     doc = _coloured(("light", 0, (240, 240, 230)), ("couch", 3, (60, 38, 22)))
