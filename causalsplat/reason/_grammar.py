@@ -154,6 +154,9 @@ ACTION_TRIGGERS = re.compile(
     r"stuff|objects?|items?|what|where) (?:that|which)\b|"
     r"\b(?:i|we) (?:want|need|would like|wanna|have|am going) to\b|"
     r"\b(?:used|good|useful) (?:to|for)\b|"
+    # where a thing belongs: "where do dirty clothes go?", "where does this box belong?"
+    r"\bwhere (?:do|does|should|would|could|can|might|will) (?:[a-z]+ ){1,4}"
+    r"(?:go|belong|live)\b|"
     r"\b(?:i|we)(?: really| just| also| still| now| badly)? (?:need|want|require|desire|"
     r"wish|hope|must|should|would like|like|am seeking|am looking for|am searching for|"
     r"am after|have to|got to|gotta)\b"
@@ -249,7 +252,8 @@ EXTREMES: dict[str, tuple[Metric, Op]] = {
 INFINITIVE_HEADS = frozenset({"want", "wants", "wanted", "need", "needs", "like", "love",
                               "going", "trying", "try", "able", "have", "has", "something",
                               "somewhere", "anything", "place", "way", "thing", "tool",
-                              "object", "where", "how", "what", "ready"})  # fmt: skip
+                              "object", "where", "how", "what", "ready", "go", "goes",
+                              "come"})  # fmt: skip
 #: Side words (relative to the observer): word -> "left" | "right" | "middle".
 SIDES: dict[str, str] = {
     "left": "left", "leftmost": "left", "rightmost": "right", "right": "right",

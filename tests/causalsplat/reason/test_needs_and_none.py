@@ -269,6 +269,9 @@ def test_needs_on_scene0000(reasoner: OfflineReasoner) -> None:
     assert cats("I need to throw this paper away.") == {"trash can"}
     # too hot to work: the need is to cool down, not a desk to work at
     assert cats("it's too hot to work in here") in ({"window"}, {"shower"})
+    # where a thing belongs is a need for a place for it; "go to <verb>" an infinitive
+    assert cats("where do dirty clothes go") == {"laundry basket"}
+    assert cats("where do I go to shower?") == {"shower"}
 
 
 def test_colour_programs_agree_on_every_executor(tmp_path: Path) -> None:
