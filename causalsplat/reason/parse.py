@@ -16,7 +16,7 @@ from dataclasses import dataclass, field, replace
 from causalsplat.reason import _grammar as g
 from causalsplat.reason._conditions import asks_what_follows, moves_away, split_condition
 from causalsplat.reason._items import Item, Modifier, read_items
-from causalsplat.reason._mentions import NAMED, CategoryIndex, Mention
+from causalsplat.reason._mentions import NAMED, CategoryIndex, Mention, mention_at
 from causalsplat.reason._spelling import correct
 from causalsplat.reason._text import NUMBER_WORDS, tokenize
 from causalsplat.reason.lexicon import Lexicon
@@ -676,6 +676,10 @@ class _View:
     shown: NounPhrase | None = None
 
 
+#: Words of coming into the room; said without a place, one comes in through its door.
+_COMING_IN = frozenset({"enter", "enters", "entered", "entering", "in", "into"})
+
+
 def _viewpoint(tokens: tuple[str, ...], index: CategoryIndex) -> _View:
     """The viewpoint entity of a viewpoint clause, and whether the observer stands at it
     (standing, sitting, entering at it and not looking or facing anywhere else; standing
@@ -685,6 +689,11 @@ def _viewpoint(tokens: tuple[str, ...], index: CategoryIndex) -> _View:
         return _View()
     nps = [it.np for it in read_items(tokens, index) if it.np is not None and it.np.resolved]
     named: list[NounPhrase] = [np for np in nps if not np.is_any]  # type: ignore[misc]
+    if not named and any(t in _COMING_IN for t in tokens):
+        # "as you walk in", "when you enter the room": one comes in through the door
+        door = mention_at(index, ("door",), 0)
+        if door is not None and door.categories:
+            return _View(NounPhrase(door), standing=True)
     if not named:
         return _View()
     every = list(named)

@@ -151,3 +151,13 @@ def test_an_ordinal_counted_from_a_thing_ranks_by_distance_to_it(room: SceneCont
     assert answer("the first chair from the door")[0] == (5,)
     # from a side or an end it is a count along that side, as before
     assert answer("the second chair from the left")[1] == "read as: refer 'chair'; side left #2"
+
+
+def test_coming_in_without_a_place_is_coming_in_through_the_door(room: SceneContext) -> None:
+    reasoner = OfflineReasoner()
+    at_door = reasoner.answer("standing at the door, the chair on your left", room)
+    for text in ("as you walk in, the chair on your left",
+                 "when you enter the room, the chair on your left"):  # fmt: skip
+        answer = reasoner.answer(text, room)
+        assert answer.entity_ids == at_door.entity_ids
+        assert answer.explanation.splitlines()[0].endswith("standing at 'door'"), text
