@@ -626,6 +626,11 @@ class Planner:
                 # farthest from them
                 anchor = a[0] if len(a) == 1 else self.b.union(a)
                 farthest = self.b.add(Op.ARGMAX, step, anchor, metric=self.b.distance_to(anchor))
+                if c.kind in ("near", "closest") and not selectors:
+                    # "the trash can not near the kitchen" when none is near it by the
+                    # stored relation: of the rest, the one farthest from it (what comes
+                    # after it, a side or another relation, chooses otherwise)
+                    out = self.b.add(Op.ARGMAX, out, anchor, metric=self.b.distance_to(anchor))
                 out = self.b.coalesce((out, None), (farthest, f"every candidate is"
                     f" {_WORDS.get(c.kind, c.kind)} it; took the farthest instead"))  # fmt: skip
             return Planned(out, None)

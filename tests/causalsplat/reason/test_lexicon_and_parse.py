@@ -161,3 +161,10 @@ def test_coming_in_without_a_place_is_coming_in_through_the_door(room: SceneCont
         answer = reasoner.answer(text, room)
         assert answer.entity_ids == at_door.entity_ids
         assert answer.explanation.splitlines()[0].endswith("standing at 'door'"), text
+
+
+def test_the_one_not_near_a_thing_is_the_farthest_of_the_rest(room: SceneContext) -> None:
+    # no chair is near the lamp (the stored relation): of the three, the one farthest
+    # from it, not the largest
+    answer = OfflineReasoner().answer("the chair that is not near the lamp", room)
+    assert answer.entity_ids == (5,), answer.explanation
