@@ -126,19 +126,20 @@ FUNCTION_WORDS = frozenset({
 })  # fmt: skip
 #: English function words (pronouns, determiners, prepositions, conjunctions, auxiliaries)
 #: that WordNet does not list: words, never misspellings (:mod:`~causalsplat.reason._spelling`).
-CLOSED_CLASS = FUNCTION_WORDS | frozenset({
-    "the", "this", "that", "these", "those", "what", "which", "where", "whose", "whom",
-    "while", "whilst", "with", "within", "without", "from", "into", "onto", "upon", "over",
-    "across", "along", "alongside", "around", "about", "above", "against", "among", "amongst",
-    "atop", "before", "beneath", "beside", "besides", "beyond", "during", "except", "inside",
-    "outside", "through", "throughout", "toward", "towards", "underneath", "unto", "until",
-    "unless", "though", "although", "because", "whether", "either", "neither", "nor", "their",
-    "theirs", "them", "they", "your", "yours", "ours", "mine", "hers", "itself", "himself",
-    "herself", "myself", "yourself", "themselves", "ourselves", "each", "every", "both",
-    "another", "other", "others", "such", "much", "many", "more", "most", "less", "least",
-    "few", "fewer", "only", "than", "then", "there", "here", "thats", "whats", "theres",
-    "shall", "cannot", "ought", "once", "twice", "again", "also", "ever", "never", "none",
-})  # fmt: skip
+CLOSED_CLASS = (
+    FUNCTION_WORDS | DETERMINERS | PRONOUNS | POSSESSIVES | NEGATIONS | frozenset({
+        "what", "which", "where", "whose", "whom", "while", "whilst", "with", "within",
+        "from", "into", "onto", "upon", "over", "across", "along", "alongside", "around",
+        "about", "against", "among", "amongst", "atop", "before", "beneath", "beside",
+        "besides", "beyond", "during", "inside", "outside", "through", "throughout", "toward",
+        "towards", "underneath", "unto", "until", "unless", "though", "although", "because",
+        "whether", "either", "neither", "nor", "theirs", "yours", "ours", "mine", "hers",
+        "himself", "herself", "myself", "yourself", "themselves", "ourselves", "both",
+        "others", "such", "much", "many", "more", "most", "less", "least", "few", "fewer",
+        "only", "thats", "whats", "theres", "cannot", "ought", "once", "twice", "again",
+        "ever", "none",
+    })
+)  # fmt: skip
 #: What makes a request about an action or a need ("where can I ...", "something to ...").
 #: "to" as the mark of an infinitive ("something to sit on"), not the preposition of a
 #: place ("the thing to the left of the fridge").

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import gzip
 import json
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from functools import lru_cache
 from importlib import resources
 from pathlib import Path
@@ -35,11 +35,20 @@ _NOUN_RULES = (("ses", "s"), ("xes", "x"), ("zes", "z"), ("ches", "ch"), ("shes"
 _VERB_RULES = (("ies", "y"), ("es", "e"), ("es", ""), ("ed", "e"), ("ed", ""), ("ing", "e"),
                ("ing", ""), ("s", ""))  # fmt: skip
 _ADJ_RULES = (("er", ""), ("est", ""), ("er", "e"), ("est", "e"))
+#: Every inflection a word of any part of speech may carry, adverbs' "-ly" included.
+_ANY_RULES = (*_NOUN_RULES, *_VERB_RULES, *_ADJ_RULES, ("ly", ""), ("ily", "y"))
 
 #: A noun synset's fields: lemmas, hypernyms, derivationally related verbs, gloss.
 _NounRow = tuple[tuple[str, ...], tuple[int, ...], tuple[int, ...], str]
 #: A verb synset's fields: lemmas, hypernyms, derivationally related nouns.
 _VerbRow = tuple[tuple[str, ...], tuple[int, ...], tuple[int, ...]]
+
+
+def _bases(word: str, rules: tuple[tuple[str, str], ...]) -> Iterator[str]:
+    """The candidate base forms of ``word`` by suffix ``rules``, in their order."""
+    for suffix, ending in rules:
+        if word.endswith(suffix) and len(word) > len(suffix) + 1:
+            yield word[: -len(suffix)] + ending
 
 
 def _ints(text: str) -> tuple[int, ...]:
@@ -105,11 +114,9 @@ class Lexicon:
         if exc is not None and (pos == "a" or exc in index):
             return exc
         rules = {"n": _NOUN_RULES, "v": _VERB_RULES, "a": _ADJ_RULES}[pos]
-        for suffix, ending in rules:
-            if word.endswith(suffix) and len(word) > len(suffix) + 1:
-                base = word[: -len(suffix)] + ending
-                if pos == "a" or base in index:
-                    return base
+        for base in _bases(word, rules):
+            if pos == "a" or base in index:
+                return base
         if pos == "n" and word.endswith("s") and not word.endswith("ss") and len(word) > 3:
             return word[:-1]
         return word
@@ -136,12 +143,10 @@ class Lexicon:
         word = word.lower()
         if word in words or word in self._exceptions:
             return True
-        for suffix, ending in (*_NOUN_RULES, *_VERB_RULES, *_ADJ_RULES, ("ly", ""), ("ily", "y")):
-            if word.endswith(suffix) and len(word) > len(suffix) + 1:
-                base = word[: -len(suffix)] + ending
-                if base in words or (len(base) > 2 and base[-1] == base[-2] and base[:-1] in words):
-                    return True
-        return False
+        return any(
+            base in words or (len(base) > 2 and base[-1] == base[-2] and base[:-1] in words)
+            for base in _bases(word, _ANY_RULES)
+        )
 
     # -- nouns ---------------------------------------------------------------------------
 
