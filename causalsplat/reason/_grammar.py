@@ -244,6 +244,7 @@ EXTREMES: dict[str, tuple[Metric, Op]] = {
     "tallest": _TALL, "taller": _TALL, "tall": _TALL,
     "shortest": _SHORT, "shorter": _SHORT, "short": _SHORT,
     "highest": _HIGH, "higher": _HIGH, "upper": _HIGH, "uppermost": _HIGH, "topmost": _HIGH,
+    "elevated": _HIGH, "raised": _HIGH,
     "lowest": _LOW, "lower": _LOW, "bottommost": _LOW,
     "longest": _LONG, "longer": _LONG, "long": _LONG, "widest": _LONG, "wider": _LONG,
     "wide": _LONG,

@@ -176,6 +176,64 @@ def _group_of(tokens: tuple[str, ...], i: int) -> bool:
     )
 
 
+#: Nouns for things piled on each other ("on top of the stack": the highest of them).
+_HEAPS = frozenset({"stack", "pile", "heap"})
+#: Words that place a thing above or below others ("under all the other towels").
+_BELOW_WORDS = frozenset({"under", "below", "beneath", "underneath"})
+_ABOVE_WORDS = frozenset({"above", "over", "atop"})
+
+
+def _heap_position(tokens: tuple[str, ...], i: int) -> tuple[int, str] | None:
+    """Where a place in a pile, or over or under all the others, ends, and the height word it
+    means (``"highest"`` or ``"lowest"``), when one starts at ``i``: "on (the) top of the
+    stack", "at the bottom of the pile", "under all the other towels", "above all the
+    rest". The pile is the target's own kind, so the place picks the highest or the lowest
+    of them; ``None`` otherwise.
+
+    >>> _heap_position(tuple("the towel at the bottom of the pile".split()), 2)
+    (8, 'lowest')
+    >>> _heap_position(tuple("the towel under all the other towels".split()), 2)
+    (7, 'lowest')
+    >>> _heap_position(tuple("the towel under the sink".split()), 2) is None
+    True
+    """
+    n = len(tokens)
+    j = i
+    if tokens[j] in ("on", "at", "in") and j + 1 < n:
+        j += 1
+        if tokens[j] == "the" and j + 1 < n:
+            j += 1
+        if tokens[j] in ("top", "bottom") and j + 1 < n and tokens[j + 1] == "of":
+            word = "highest" if tokens[j] == "top" else "lowest"
+            k = j + 2
+            while k < n and tokens[k] in ("the", "a", "this", "that", "their", "its"):
+                k += 1
+            if k < n and tokens[k] in _HEAPS:
+                return k + 1, word
+        return None
+    first = tokens[j]
+    if first == "on" or first not in (_BELOW_WORDS | _ABOVE_WORDS):
+        return None
+    word = "lowest" if first in _BELOW_WORDS else "highest"
+    k = j + 1
+    if k >= n or tokens[k] != "all":
+        return None
+    k += 1
+    if k < n and tokens[k] == "of":
+        k += 1
+    if k < n and tokens[k] == "the":
+        k += 1
+    if k < n and tokens[k] in ("others", "rest"):
+        return k + 1, word
+    if k < n and tokens[k] == "other":
+        # "the other towels", "the other ones": the target's kind named again
+        k += 1
+        if k < n and tokens[k].isalpha() and tokens[k] not in g.CLOSED_CLASS:
+            k += 1
+        return k, word
+    return None
+
+
 def _introduces(
     index: CategoryIndex, tokens: tuple[str, ...], i: int, earlier: tuple[str, ...]
 ) -> bool:
@@ -335,6 +393,15 @@ def read_items(
             continue
         if tokens[i : i + 3] == ("side", "by", "side"):
             i += 3  # "the two side-by-side doors": how they stand, no "by" of a relation
+            continue
+        heap = _heap_position(tokens, i)
+        if heap is not None:
+            # "on top of the pile", "under all the other towels": the highest or lowest
+            flush()
+            metric, direction = g.EXTREMES[heap[1]]
+            items.append(Item(i, heap[0], mod=Modifier("extreme", heap[1], direction=direction,
+                                                       metric=metric)))  # fmt: skip
+            i = heap[0]
             continue
         if _group_of(tokens, i):
             # "in the row of shoes": one of them, beside the others, not inside them

@@ -281,6 +281,29 @@ def test_top_and_bottom_before_a_noun_single_out_the_highest_and_lowest() -> Non
     assert ins.target is not None and ins.target.extremes == ()
 
 
+def test_a_place_in_a_pile_or_over_all_the_others_is_a_height() -> None:
+    # three towels stacked on a shelf, a fourth hanging beside them at the pile's middle
+    # height: "the top of the pile" names no anchor the scene has, "all the other towels"
+    # no single one; both rank the towels by height
+    boxes: list[Box] = [
+        (1, "shelf", (0.0, 0.0, 0.5), (1.0, 0.4, 1.0)),
+        (2, "towel", (0.0, 0.0, 1.05), (0.5, 0.3, 0.1)),
+        (3, "towel", (0.0, 0.0, 1.15), (0.5, 0.3, 0.1)),
+        (4, "towel", (0.05, 0.0, 1.25), (0.5, 0.3, 0.1)),
+        (5, "towel", (2.0, 0.0, 1.15), (0.05, 0.4, 0.6)),
+    ]
+    scene = _scene(boxes)
+    assert ask(scene, "the towel on top of the pile") == (4,)
+    assert ask(scene, "the towel that's at the top of the stack") == (4,)
+    assert ask(scene, "the towel above all the others") == (4,)
+    assert ask(scene, "The towel under all the other towels.") == (2,)
+    assert ask(scene, "the towel at the bottom of the heap") == (2,)
+    assert ask(scene, "the elevated towel") == (4,)
+    # under a thing the scene has is still a relation to it
+    ins = REASONER.parse("the towel under the shelf", scene)
+    assert ins.target is not None and ins.target.extremes == ()
+
+
 @pytest.mark.parametrize(
     ("text", "kind"),
     [
