@@ -55,7 +55,12 @@ CUE_PATTERNS: tuple[tuple[str, str], ...] = (
                 r"in the (?:middle|center|centre) of"),
     ("farthest", r"(?:the )?(?:(?:farthest|furthest|farther|further|far)(?: away)?|away) from|"
                  r"(?:the )?(?:farthest|furthest)(?= (?!left |right |to )(?:\S+ ){1,3}from )"),
-    ("closest", r"(?:the )?(?:closest|nearest|closer|nearer)(?: to)?"),
+    # "on the same wall as the sink", "same side as where the dresser is": beside it along
+    # the room's side, read as the closest to it
+    ("closest", r"(?:the )?(?:closest|nearest|closer|nearer)(?: to)?|"
+                r"(?:(?:on|at|along|against|by|in) )?(?:the )?same "
+                r"(?:side|wall|end|corner|part|half)(?: of (?:the|this) " + _ROOM + r")? as"
+                r"(?: (?:where|what))?"),
     ("opposite", r"(?:(?:directly|right|just|diagonally) )?"
                  r"(?:across from|opposite(?: to| from| of)?)"),
     ("near", r"(?:(?:right|directly|just|located|placed|sitting|standing) )?"

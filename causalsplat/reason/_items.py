@@ -176,6 +176,21 @@ def _group_of(tokens: tuple[str, ...], i: int) -> bool:
     )
 
 
+def _told_to_look(tokens: tuple[str, ...], i: int) -> bool:
+    """Whether ``tokens[i]`` is the "at" of a sentence that opens by telling one to look at
+    something ("look at the picture above the seat", "please look at the lamp ..."): what
+    is looked at is what is sought, not where it is.
+
+    >>> _told_to_look(tuple("look at the picture above the seat".split()), 1)
+    True
+    >>> _told_to_look(tuple("the cup at the sink".split()), 2)
+    False
+    """
+    if tokens[i] != "at" or i == 0 or tokens[i - 1] != "look":
+        return False
+    return i == 1 or tokens[i - 2] in (".", ",", "please", "then", "now", "and", "just")
+
+
 #: Nouns for things piled on each other ("on top of the stack": the highest of them).
 _HEAPS = frozenset({"stack", "pile", "heap"})
 #: Words that place a thing above or below others ("under all the other towels").
@@ -393,6 +408,9 @@ def read_items(
             continue
         if tokens[i : i + 3] == ("side", "by", "side"):
             i += 3  # "the two side-by-side doors": how they stand, no "by" of a relation
+            continue
+        if _told_to_look(tokens, i):
+            i += 1  # "look at the picture above the seat": the picture is what is sought
             continue
         heap = _heap_position(tokens, i)
         if heap is not None:

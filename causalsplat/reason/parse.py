@@ -718,7 +718,25 @@ def _viewpoint(tokens: tuple[str, ...], index: CategoryIndex) -> _View:
     shown = next(
         (np for np in every if np is not observer and _word_before(tokens, np) == "with"), None
     )
+    if shown is None and observer is not None and _counted(tokens, observer):
+        # "sitting in the two chairs facing the wall, the one on the left": one of the
+        # chairs the observer is among, not of the wall
+        shown = observer
     return _View(named[-1], standing or seen_from, observer, shown)
+
+
+def _counted(tokens: tuple[str, ...], np: NounPhrase) -> bool:
+    """Whether a number of more than one comes right before the phrase (past its
+    determiners): "the two chairs", "both beds", "the 3 desks"."""
+    if np.mention is None:
+        return False
+    j = np.mention.start - 1
+    while j >= 0 and tokens[j] in ("the", "these", "those"):
+        j -= 1
+    if j < 0:
+        return False
+    t = tokens[j]
+    return (t.isdigit() and int(t) > 1) or NUMBER_WORDS.get(t, 0) > 1
 
 
 def _word_before(tokens: tuple[str, ...], np: NounPhrase) -> str | None:
@@ -1016,7 +1034,7 @@ class _Reader:
             cue.kind in ("closest", "farthest")
             and (self.target is None or again)
             and bool(self.tokens)
-            and self.tokens[cue.end - 1] not in ("to", "from")
+            and self.tokens[cue.end - 1] not in ("to", "from", "as", "where", "what")
             and k + 1 < len(items)
             and items[k + 1].np is not None
             and items[k + 1].start == cue.end

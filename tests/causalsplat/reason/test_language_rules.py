@@ -227,6 +227,39 @@ def test_a_viewpoint_names_the_target_when_the_main_clause_names_nothing() -> No
     assert ins.target is not None and ins.target.categories == ()
 
 
+def test_the_one_among_counted_seats_is_one_of_them() -> None:
+    # two chairs face a wall (y = 3); a third stands behind them. Sitting in them facing
+    # the wall, x grows to the right: "the one on the left" is the chair at x = 0, one of
+    # the two chairs, not the wall faced
+    scene = _scene([(1, "wall", (1.0, 3.0, 1.2), (6.0, 0.1, 2.4)),
+                    (2, "chair", (0.0, 1.0, 0.45), (0.5, 0.5, 0.9)),
+                    (3, "chair", (1.0, 1.0, 0.45), (0.5, 0.5, 0.9)),
+                    (4, "chair", (0.5, -2.0, 0.45), (0.5, 0.5, 0.9))])  # fmt: skip
+    text = "Imagine you're sitting in the two chairs facing the wall. Choose the one on the left."
+    assert ask(scene, text) == (2,)
+    assert ask(scene, text.replace("left", "right")) == (3,)
+    # one seat: "the one" is still of what is faced
+    ins = REASONER.parse("sitting in the chair facing the walls, the one on the left", scene)
+    assert ins.target is not None and ins.target.categories == ("wall",)
+
+
+def test_look_at_names_what_is_sought() -> None:
+    scene = _scene(KITCHEN)
+    assert ask(scene, "look at the chair closest to the monitor") == (6,)
+    assert ask(scene, "please look at the stool by the bookshelf") == (4,)
+    # "at" elsewhere is still where a thing is
+    ins = REASONER.parse("the stool at the stove", scene)
+    assert ins.target is not None and [c.kind for c in ins.target.constraints] == ["near"]
+
+
+def test_on_the_same_side_as_a_thing_is_beside_it() -> None:
+    # the stools stand one by the stove, one by the bookshelf, on the kitchen's two sides
+    scene = _scene(KITCHEN)
+    assert ask(scene, "the stool on the same side as the stove") == (3,)
+    assert ask(scene, "same side of the room as the bookshelf is, the stool") == (4,)
+    assert ask(scene, "the stool, on the same wall as where the bookshelf is") == (4,)
+
+
 def test_a_negated_relation_every_candidate_meets_takes_the_farthest() -> None:
     # both chairs stand at the desk; "not at the desk" then means the one farther from it
     boxes: list[Box] = [
