@@ -62,7 +62,10 @@ CUE_PATTERNS: tuple[tuple[str, str], ...] = (
                 r"(?:side|wall|end|corner|part|half)(?: of (?:the|this) " + _ROOM + r")? as"
                 r"(?: (?:where|what))?"),
     ("opposite", r"(?:(?:directly|right|just|diagonally) )?"
-                 r"(?:across from|opposite(?: to| from| of)?)"),
+                 r"(?:across from|opposite(?: to| from| of)?)|"
+                 # "on the other side of the table" (not "... of the room": a place)
+                 r"(?:on|at|to) the (?:other|opposite) side of(?= (?:the|a|an|this) (?!"
+                 + _ROOM + r"\b))"),
     ("near", r"(?:(?:right|directly|just|located|placed|sitting|standing) )?"
              r"(?:near(?: to)?|next to|beside|besides|by|adjacent to|alongside|close to|"
              r"nearby|against|at)"),
@@ -249,7 +252,7 @@ EXTREMES: dict[str, tuple[Metric, Op]] = {
     "tallest": _TALL, "taller": _TALL, "tall": _TALL,
     "shortest": _SHORT, "shorter": _SHORT, "short": _SHORT,
     "highest": _HIGH, "higher": _HIGH, "upper": _HIGH, "uppermost": _HIGH, "topmost": _HIGH,
-    "elevated": _HIGH, "raised": _HIGH,
+    "elevated": _HIGH, "raised": _HIGH, "high": _HIGH, "low": _LOW,
     "lowest": _LOW, "lower": _LOW, "bottommost": _LOW,
     "longest": _LONG, "longer": _LONG, "long": _LONG, "widest": _LONG, "wider": _LONG,
     "wide": _LONG,

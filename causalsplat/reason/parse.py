@@ -894,6 +894,7 @@ class _Reader:
     def read(self) -> NounPhrase | None:
         items = self.items
         negated = False
+        shared: list[tuple[str, int]] = []  # relations waiting for the next one's anchor
         k = 0
         while k < len(items):
             it = items[k]
@@ -920,10 +921,21 @@ class _Reader:
                 k = self._superlative(k)
                 negated = False
                 continue
+            elif it.cue is not None and self._shares_anchor(k):
+                # "to the left of and in front of the armchair": both of the armchair
+                shared.append((it.cue.kind, it.start))
+                k += 2
+                continue
             elif it.cue is not None:
                 nested = k == self.last_anchor_end and it.cue.kind == "with"
                 first = k
                 k, constraint = self._constraint(k)
+                if constraint is not None and constraint.anchors and shared:
+                    for kind, start in shared:
+                        span = (start, items[k - 1].end)
+                        self._add(Constraint(kind, constraint.anchors, negated=negated,
+                                             span=span), nested=False)  # fmt: skip
+                shared.clear()
                 if constraint is not None and not constraint.anchors:
                     # a cue left without its anchor asks about the subject only where
                     # the clause ends on it ("what is the cup on?"), never before a place
@@ -1021,6 +1033,20 @@ class _Reader:
         else:
             self.free = np
         return False
+
+    def _shares_anchor(self, k: int) -> bool:
+        """Whether the relation cue at ``k`` has no anchor of its own but is joined by
+        "and" / "or" to the next cue, whose anchor it shares: "to the left of and in front
+        of the armchair", "behind or next to the door" (not "with"/"has": what a thing has
+        is no place)."""
+        items = self.items
+        return (
+            k + 2 < len(items)
+            and items[k + 1].conjunction
+            and items[k + 2].cue is not None
+            and "with" not in (items[k].cue.kind, items[k + 2].cue.kind)  # type: ignore[union-attr]
+            and self.tokens[items[k + 1].start] in ("and", "or")
+        )
 
     def _before_its_noun(self, k: int) -> bool:
         """ "the closest chair (to the door)": a closest / farthest cue without its "to" /

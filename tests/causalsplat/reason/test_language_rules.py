@@ -260,6 +260,41 @@ def test_on_the_same_side_as_a_thing_is_beside_it() -> None:
     assert ask(scene, "the stool, on the same wall as where the bookshelf is") == (4,)
 
 
+def test_high_and_low_rank_by_height() -> None:
+    scene = _scene([(1, "wall", (0.0, 2.0, 1.2), (6.0, 0.1, 2.4)),
+                    (2, "lamp", (-1.0, 1.9, 2.0), (0.3, 0.2, 0.3)),
+                    (3, "lamp", (1.0, 1.9, 0.5), (0.3, 0.2, 0.3)),
+                    (4, "mirror", (-1.6, 1.9, 1.4), (0.6, 0.1, 0.8))])  # fmt: skip
+    assert ask(scene, "The lamp high on the wall, next to the mirror.") == (2,)
+    assert ask(scene, "the lamp low on the wall") == (3,)
+
+
+def test_relations_joined_by_and_share_their_anchor() -> None:
+    # a door left of the armchair, one in front of it, one both: "to the left of and in
+    # front of" asks both of the armchair, not only the last
+    scene = _scene([(1, "armchair", (0.0, 0.0, 0.45), (0.8, 0.8, 0.9)),
+                    (2, "door", (-2.0, 0.0, 1.0), (0.1, 0.9, 2.0)),
+                    (3, "door", (0.0, -2.0, 1.0), (0.9, 0.1, 2.0)),
+                    (4, "door", (-1.5, -1.5, 1.0), (0.9, 0.1, 2.0))])  # fmt: skip
+    ins = REASONER.parse("a door to the left of and in front of the armchair", scene)
+    assert ins.target is not None
+    kinds = [(c.kind, c.anchors[0].categories) for c in ins.target.constraints]
+    assert kinds == [("left_of", ("armchair",)), ("in_front_of", ("armchair",))]
+    # "with" and "has" join no place
+    ins = REASONER.parse("a door with and next to the armchair", scene)
+    assert ins.target is not None and [c.kind for c in ins.target.constraints] == ["near"]
+
+
+def test_on_the_other_side_of_a_thing_is_across_from_it() -> None:
+    # stool 3 stands by the stove, stool 4 across the kitchen from it
+    scene = _scene(KITCHEN)
+    ins = REASONER.parse("the stool on the other side of the stove", scene)
+    assert ins.target is not None and [c.kind for c in ins.target.constraints] == ["opposite"]
+    # the other side of the room is a place, no relation to a room
+    ins = REASONER.parse("the stool on the other side of the room", scene)
+    assert ins.target is not None and "opposite" not in [c.kind for c in ins.target.constraints]
+
+
 def test_a_negated_relation_every_candidate_meets_takes_the_farthest() -> None:
     # both chairs stand at the desk; "not at the desk" then means the one farther from it
     boxes: list[Box] = [
