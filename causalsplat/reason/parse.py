@@ -936,6 +936,7 @@ class _Reader:
                         self._add(Constraint(kind, constraint.anchors, negated=negated,
                                              span=span), nested=False)  # fmt: skip
                 shared.clear()
+                also = self._second_anchor(k, constraint)
                 if constraint is not None and not constraint.anchors:
                     # a cue left without its anchor asks about the subject only where
                     # the clause ends on it ("what is the cup on?"), never before a place
@@ -946,10 +947,19 @@ class _Reader:
                 if constraint is not None:
                     span = (items[first].start, items[k - 1].end)
                     negated = negated or constraint.negated
+                    if also is not None:
+                        # "to the right of the curtains and the bike": of both; the
+                        # first named stays the last relation, whose anchor breaks ties
+                        also_span = (items[k + 1].start, items[k + 1].end)
+                        self._add(Constraint(constraint.kind, (self._anchor_kind(also),),
+                                             negated=negated, span=also_span),
+                                  nested=False)  # fmt: skip
                     self._add(replace(constraint, negated=negated, span=span), nested=nested)
                     self.last_anchor_end = k
                     if it.cue.kind == "with" and not nested:
                         self.with_kind = constraint.kind
+                    if also is not None:
+                        k += 2
                 negated = False
                 continue
             elif it.separator:
@@ -1033,6 +1043,28 @@ class _Reader:
         else:
             self.free = np
         return False
+
+    def _second_anchor(self, k: int, constraint: Constraint | None) -> NounPhrase | None:
+        """The phrase joined by "and" to the anchor of the relation just read (items up
+        to ``k``), when the clause ends after it: "next to a toilet and a trash can." (not
+        "next to the table and the lamp is on it", nor the two of "between")."""
+        items, tokens = self.items, self.tokens
+        if (
+            constraint is None
+            or not constraint.anchors
+            or constraint.kind in ("between", "with")
+            or k + 1 >= len(items)
+            or not items[k].conjunction
+            or tokens[items[k].start] != "and"
+        ):
+            return None
+        np = items[k + 1].np
+        if np is None or np.is_any or not np.resolved:  # type: ignore[attr-defined]
+            return None
+        end = items[k + 1].end
+        if end < len(tokens) and tokens[end] not in (",", ".", "?"):
+            return None
+        return np  # type: ignore[return-value]
 
     def _shares_anchor(self, k: int) -> bool:
         """Whether the relation cue at ``k`` has no anchor of its own but is joined by

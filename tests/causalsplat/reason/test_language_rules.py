@@ -285,6 +285,25 @@ def test_relations_joined_by_and_share_their_anchor() -> None:
     assert ins.target is not None and [c.kind for c in ins.target.constraints] == ["near"]
 
 
+def test_anchors_joined_by_and_are_both_anchors() -> None:
+    scene = _scene(KITCHEN)
+
+    def relations(text: str) -> list[tuple[str, tuple[str, ...]]]:
+        ins = REASONER.parse(text, scene)
+        assert ins.target is not None
+        return [(c.kind, c.anchors[0].categories) for c in ins.target.constraints]
+
+    # the first named stays the last relation (its anchor breaks ties)
+    assert relations("the stool next to the stove and the monitor.") == [
+        ("near", ("monitor",)), ("near", ("stove",))]  # fmt: skip
+    # a new clause after "and" is no second anchor
+    near = [r for r in relations("the stool next to the stove and the monitor is on the wall")
+            if r[0] == "near"]  # fmt: skip
+    assert near == [("near", ("stove",))]
+    # "between" takes its two anchors as before
+    assert relations("the stool between the stove and the bookshelf")[0][0] == "between"
+
+
 def test_on_the_other_side_of_a_thing_is_across_from_it() -> None:
     # stool 3 stands by the stove, stool 4 across the kitchen from it
     scene = _scene(KITCHEN)
