@@ -983,6 +983,29 @@ class _Reader:
                 self.target, not_attributes=(*self.target.not_attributes, *np.attributes)
             )
             return True
+        if (
+            negated
+            and self.constraints
+            and self.constraints[-1].anchors
+            and self.constraints[-1].kind != "with"
+            and self.target is not None
+            and not self.target.is_any
+            and np.categories
+            and not np.is_any
+            and not np.constraints
+            and not set(np.categories) & set(self.target.categories)
+            and k > 0
+            and self.items[k - 1].negation
+            and self.tokens[self.items[k - 1].start] == "not"
+        ):
+            # "this plant is on the windowsill, not the table": the relation just said is
+            # denied of the other thing (never of the target's own kind: "not the one
+            # over the fireplace" says which target)
+            last = self.constraints[-1]
+            m = np.mention
+            span = (m.start, m.end) if m is not None else (0, 0)
+            self.constraints.append(Constraint(last.kind, (np,), negated=True, span=span))
+            return True
         if negated and self.with_kind is not None and np.categories and not np.is_any:
             # "the table that has a book on it, but no lamp and no plant": what it has
             # not, in the same relation

@@ -304,6 +304,20 @@ def test_anchors_joined_by_and_are_both_anchors() -> None:
     assert relations("the stool between the stove and the bookshelf")[0][0] == "between"
 
 
+def test_not_another_thing_denies_the_relation_of_it() -> None:
+    # the larger plant stands on the table, the other on a cabinet by the window; the
+    # scene has no windowsill: "..., not the table" still says which plant
+    scene = _scene([(1, "table", (0.0, 0.0, 0.4), (1.2, 0.8, 0.8)),
+                    (2, "plant", (0.0, 0.0, 1.0), (0.4, 0.4, 0.4)),
+                    (3, "cabinet", (3.0, 2.0, 0.5), (0.8, 0.5, 1.0)),
+                    (4, "plant", (3.0, 2.0, 1.15), (0.3, 0.3, 0.3))])  # fmt: skip
+    assert ask(scene, "This plant is on the windowsill, NOT the table.") == (4,)
+    # of the target's own kind it says which target, as before
+    ins = REASONER.parse("the plant on the cabinet, not the one on the table", scene)
+    assert ins.target is not None
+    assert [(c.kind, c.negated) for c in ins.target.constraints][0] == ("supported_by", False)
+
+
 def test_on_the_other_side_of_a_thing_is_across_from_it() -> None:
     # stool 3 stands by the stove, stool 4 across the kitchen from it
     scene = _scene(KITCHEN)
