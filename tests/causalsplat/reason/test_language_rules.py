@@ -320,6 +320,20 @@ def test_not_another_thing_denies_the_relation_of_it() -> None:
         "supported_by", False, ("cabinet",))  # fmt: skip
 
 
+def test_a_thing_facing_another_is_turned_to_it() -> None:
+    # chair 7 stands nearer the bookshelf than chair 6: "it is facing the bookshelf" says
+    # which chair, read as the closest to it
+    scene = _scene(KITCHEN)
+    assert ask(scene, "this is a chair. it is facing the bookshelf.") == (7,)
+    assert ask(scene, "the chair that faces towards the bookshelf") == (7,)
+    # the observer facing a thing is a viewpoint, no relation of the target
+    for text in ("if you are facing the bookshelf, the chair on the left",
+                 "when you're facing the bookshelf it is the chair on the left"):  # fmt: skip
+        ins = REASONER.parse(text, scene)
+        assert ins.target is not None
+        assert "closest" not in [c.kind for c in ins.target.constraints], text
+
+
 def test_on_the_other_side_of_a_thing_is_across_from_it() -> None:
     # stool 3 stands by the stove, stool 4 across the kitchen from it
     scene = _scene(KITCHEN)
