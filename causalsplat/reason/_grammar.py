@@ -71,7 +71,8 @@ CUE_PATTERNS: tuple[tuple[str, str], ...] = (
                  r"(?:on|at|to) the (?:other|opposite) side of(?= (?:the|a|an|this) (?!"
                  + _ROOM + r"\b))"),
     ("near", r"(?:(?:right|directly|just|located|placed|sitting|standing) )?"
-             r"(?:near(?: to)?|next to|beside|besides|by|adjacent to|alongside|close to|"
+             r"(?:near(?: to)?|next to|beside|besides|by(?! (?:it|them)sel)|adjacent to|"
+             r"alongside|close to|"
              r"nearby|against|at)"),
     ("supported_by", r"(?:(?:lying|laying|sitting|resting|placed|standing|stacked|set|sits|"
                      r"rests|lies|stands|kept|put|located) )?"

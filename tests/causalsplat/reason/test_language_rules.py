@@ -96,6 +96,8 @@ def test_a_later_sentence_is_not_the_subject_of_the_one(room: SceneContext) -> N
         ("the chair by itself", (5,)),
         ("the chair that sits alone", (5,)),
         ("choose the chair that is on its own", (5,)),
+        ("choose the chair that is sitting by itself", (5,)),
+        ("the chairs standing by themselves", (5,)),
     ],
 )
 def test_places_in_the_room(room: SceneContext, text: str, expected: tuple[int, ...]) -> None:
