@@ -55,13 +55,13 @@ CUE_PATTERNS: tuple[tuple[str, str], ...] = (
                 r"in the (?:middle|center|centre) of"),
     ("farthest", r"(?:the )?(?:(?:farthest|furthest|farther|further|far)(?: away)?|away) from|"
                  r"(?:the )?(?:farthest|furthest)(?= (?!left |right |to )(?:\S+ ){1,3}from )"),
-    # "on the same wall as the sink", "same side as where the dresser is": beside it along
-    # the room's side, read as the closest to it
     ("closest", r"(?:the )?(?:closest|nearest|closer|nearer)(?: to)?|"
                 # "it is facing a stool", "the one that faces the table": turned to it,
                 # read as the closest to it (the observer facing a thing is a viewpoint)
                 r"(?<!you are )(?<!you're )(?<!youre )(?<!you )(?<!i am )(?<!we are )"
                 r"(?:facing|faces)(?: towards?)?(?= (?:the|a|an|some|two|three) )|"
+                # "on the same wall as the sink", "same side as where the dresser is":
+                # beside it along the room's side, read as the closest to it
                 r"(?:(?:on|at|along|against|by|in) )?(?:the )?same "
                 r"(?:side|wall|end|corner|part|half)(?: of (?:the|this) " + _ROOM + r")? as"
                 r"(?: (?:where|what))?"),

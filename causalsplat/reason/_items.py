@@ -227,7 +227,7 @@ def _heap_position(tokens: tuple[str, ...], i: int) -> tuple[int, str] | None:
                 return k + 1, word
         return None
     first = tokens[j]
-    if first == "on" or first not in (_BELOW_WORDS | _ABOVE_WORDS):
+    if first not in _BELOW_WORDS | _ABOVE_WORDS:
         return None
     word = "lowest" if first in _BELOW_WORDS else "highest"
     k = j + 1

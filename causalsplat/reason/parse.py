@@ -1091,16 +1091,16 @@ class _Reader:
 
     def _shares_anchor(self, k: int) -> bool:
         """Whether the relation cue at ``k`` has no anchor of its own but is joined by
-        "and" / "or" to the next cue, whose anchor it shares: "to the left of and in front
-        of the armchair", "behind or next to the door" (not "with"/"has": what a thing has
-        is no place)."""
+        "and" to the next cue, whose anchor it shares: "to the left of and in front of the
+        armchair" (not "or", which asks either; nor "with" / "has": what a thing has is no
+        place)."""
         items = self.items
         return (
             k + 2 < len(items)
             and items[k + 1].conjunction
             and items[k + 2].cue is not None
             and "with" not in (items[k].cue.kind, items[k + 2].cue.kind)  # type: ignore[union-attr]
-            and self.tokens[items[k + 1].start] in ("and", "or")
+            and self.tokens[items[k + 1].start] == "and"
         )
 
     def _before_its_noun(self, k: int) -> bool:
