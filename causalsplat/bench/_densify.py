@@ -4,6 +4,17 @@ Real 3DGS scenes hold many overlapping near-duplicate Gaussians (densification c
 splits them). Copying each Gaussian of a synthetic scene ``copies`` times reproduces that:
 the copies are moved by ``jitter`` times the Gaussian's largest scale (normal noise), and
 the first two copies stay exactly on the original (duplicates at zero distance).
+
+A trained scene still renders the images it was fitted to, however many Gaussians make a
+surface: its overlapping Gaussians are each far less opaque than a surface (the median
+opacity of a trained INRIA scene is about 0.06). So by default (``opacity="kept"``) each
+copy gets the opacity ``1 - (1 - a) ** (1 / copies)``: the ``copies`` of a Gaussian of
+opacity ``a`` stacked on one pixel let through what it let through, and the scene renders
+as before, up to the jitter's blur. ``opacity="each"`` keeps every copy as opaque as its
+original (the construction of the benchmarks before 2026-12-01): the copies then render a
+thicker, dilated scene (each object's outline grows by about the jitter) that no longer
+matches the masks drawn from the original, so it measures that mismatch as much as the
+density.
 """
 
 from __future__ import annotations
@@ -11,8 +22,12 @@ from __future__ import annotations
 import dataclasses
 import shutil
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
+
+#: Values of ``densify_folder(opacity=...)``.
+OPACITY_RULES = ("kept", "each")
 
 
 def densify_centres(
@@ -28,22 +43,65 @@ def densify_centres(
     return np.asarray(means, dtype=np.float64)[origin] + noise, origin
 
 
-def densify_folder(src: Path, dst: Path, copies: int, jitter: float, seed: int = 0) -> Path:
+def split_opacity_logits(logits: np.ndarray, copies: int) -> np.ndarray:
+    """Opacity logits of each of ``copies`` stacked copies that together are as opaque as
+    one Gaussian of ``logits``: ``a' = 1 - (1 - a) ** (1 / copies)``, ``a = sigmoid(l)``.
+
+    Computed through ``s = log(1 + e^l) = -log(1 - a)`` so that logits far beyond the range
+    where ``a`` rounds to 0 or 1 keep their order: ``l' = log(-expm1(-s / k)) + s / k``.
+    Float64 out.
+
+    >>> l = np.array([-3.0, 0.0, 2.2])
+    >>> a = 1 / (1 + np.exp(-l))
+    >>> a2 = 1 / (1 + np.exp(-split_opacity_logits(l, 4)))
+    >>> np.allclose(1 - (1 - a2) ** 4, a)
+    True
+    >>> split_opacity_logits(np.array([1.5]), 1).tolist()
+    [1.5]
+    """
+    if copies < 1:
+        raise ValueError(f"copies must be in [1, inf), got {copies}")
+    lg = np.asarray(logits, dtype=np.float64)
+    if copies == 1:
+        return lg.copy()
+    s = np.logaddexp(0.0, lg) / copies  # -log(1 - a') of each copy
+    with np.errstate(divide="ignore"):
+        # a' = -expm1(-s); for s below ~1e-308 it underflows: then l' = l - log(copies)
+        out = np.log(-np.expm1(-s)) + s
+    tiny = ~np.isfinite(out)
+    out[tiny] = lg[tiny] - np.log(copies)
+    return out
+
+
+def densify_folder(
+    src: Path,
+    dst: Path,
+    copies: int,
+    jitter: float,
+    seed: int = 0,
+    *,
+    opacity: Literal["kept", "each"] = "kept",
+) -> Path:
     """Copy the scene folder ``src`` to ``dst`` with its PLY densified (module docstring)
     and its GT labels (``gt/gt_labels.npy``, when present) repeated to match."""
     from causalsplat.io import read_gaussian_ply, write_ply
 
+    if opacity not in OPACITY_RULES:
+        raise ValueError(f"opacity={opacity!r} must be one of {', '.join(OPACITY_RULES)}")
     shutil.copytree(src, dst)
     scene = read_gaussian_ply(dst / "point_cloud.ply").scene
     means, origin = densify_centres(
         scene.means, np.exp(scene.log_scales.astype(np.float64)), copies, jitter, seed
     )
+    logits = scene.opacity_logits
+    if opacity == "kept":
+        logits = split_opacity_logits(logits, copies).astype(scene.opacity_logits.dtype)
     dense = dataclasses.replace(
         scene,
         means=means.astype(np.float32),
         quats=scene.quats[origin],
         log_scales=scene.log_scales[origin],
-        opacity_logits=scene.opacity_logits[origin],
+        opacity_logits=logits[origin],
         sh=scene.sh[origin],
     )
     write_ply(dst / "point_cloud.ply", dense)
