@@ -67,8 +67,11 @@ def _weak_to_truth(built: np.ndarray, gt: np.ndarray, weak: np.ndarray) -> np.nd
     return out
 
 
-def stage_losses(folder: Path) -> tuple[list[str], dict[str, Any]]:
-    """The table of the module docstring for one scene folder with GT labels."""
+def stage_losses(
+    folder: Path, build_label: str = "the build (exact masks)"
+) -> tuple[list[str], dict[str, Any]]:
+    """The table of the module docstring for one scene folder with GT labels, the first
+    row (the pipeline as it is) named ``build_label``."""
     scene, config, field, evidence = build_field(folder)
     gt = scene.gt_labels
     if gt is None:
@@ -84,7 +87,7 @@ def stage_losses(folder: Path) -> tuple[list[str], dict[str, Any]]:
     oracle = assign_instances(field, evidence, config.instances, mask_clusters=objects,
                               **kwargs).labels  # fmt: skip
     rows = [
-        ("the build (exact masks)", built),
+        (build_label, built),
         ("visibility: GT object of each Gaussian some mask draws", np.where(seen > 0, gt, -1)),
         ("masks voted directly (each mask's GT object, no field)", voted),
         ("masks clustered by their GT objects, rest of the build", oracle),

@@ -321,6 +321,22 @@ def _losses_section(table: list[str]) -> list[str]:
     ]
 
 
+def _dense_losses_section(tables: list[tuple[str, list[str]]]) -> list[str]:
+    if len(tables) < 2:
+        return []
+    out = [
+        "### Where near-duplicates lose PQ",
+        "",
+        f"The same replacements on scene0000_00 from its noisy masks, as it is and with every "
+        f"Gaussian copied {DENSE_COPIES} times (the near-duplicate row above): each line says "
+        "what that part costs with and without the copies.",
+        "",
+    ]
+    for label, table in tables:
+        out += [f"{label[0].upper()}{label[1:]}:", "", *table, ""]
+    return out
+
+
 def run(*, quick: bool = False) -> BenchReport:
     with tempfile.TemporaryDirectory(prefix="cs-bench-build-") as tmp:
         work = Path(tmp)
@@ -331,6 +347,16 @@ def run(*, quick: bool = False) -> BenchReport:
             from causalsplat.bench._build_losses import stage_losses
 
             losses = stage_losses(exact)
+        # the same on scene0000_00 from its noisy masks, and copied DENSE_COPIES times
+        dense_losses: list[tuple[str, list[str]]] = []
+        for name, label in (
+            ("scene0000_00", "the build (default noise)"),
+            (f"scene0000_00-x{DENSE_COPIES}", f"the build (copied {DENSE_COPIES} times)"),
+        ):
+            if (work / name).is_dir():
+                from causalsplat.bench._build_losses import stage_losses
+
+                dense_losses.append((label, stage_losses(work / name, label)[0]))
         sweep_scene = work / ("synth-tiny-0" if quick else "synth-small-0")
         abl, abl_rows = _ablation(sweep_scene, quick)
         sweep, sweep_rows = _sweeps(sweep_scene, quick)
@@ -370,6 +396,7 @@ def run(*, quick: bool = False) -> BenchReport:
         "",
         *([line, ""] if (line := _density_line(head_rows)) else []),
         *_losses_section(losses[0]),
+        *_dense_losses_section(dense_losses),
         f"### Ablation ({'tiny' if quick else 'small'} synthetic scene)",
         "",
         *abl,
