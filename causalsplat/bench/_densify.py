@@ -22,12 +22,13 @@ from __future__ import annotations
 import dataclasses
 import shutil
 from pathlib import Path
-from typing import Literal
+from typing import Literal, get_args
 
 import numpy as np
 
-#: Values of ``densify_folder(opacity=...)``.
-OPACITY_RULES = ("kept", "each")
+#: How ``densify_folder`` sets the copies' opacity (module docstring).
+OpacityRule = Literal["kept", "each"]
+OPACITY_RULES: tuple[str, ...] = get_args(OpacityRule)
 
 
 def densify_centres(
@@ -80,7 +81,7 @@ def densify_folder(
     jitter: float,
     seed: int = 0,
     *,
-    opacity: Literal["kept", "each"] = "kept",
+    opacity: OpacityRule = "kept",
 ) -> Path:
     """Copy the scene folder ``src`` to ``dst`` with its PLY densified (module docstring)
     and its GT labels (``gt/gt_labels.npy``, when present) repeated to match."""

@@ -36,6 +36,8 @@ from pathlib import Path
 from typing import Any
 
 from causalsplat.bench import BenchReport
+from causalsplat.bench._build_losses import stage_losses
+from causalsplat.bench._densify import densify_folder
 from causalsplat.build import BuildConfig, build_scene
 from causalsplat.instances import InstanceConfig, instance_quality, scene_quality
 from causalsplat.render import RasterConfig
@@ -103,8 +105,6 @@ def _scenes(work: Path, quick: bool) -> list[tuple[str, Path, Path | None]]:
         out.append(("ScanNet scene0000_00, exact GT masks (baseline)", exact, None))
         # near-duplicates as in a trained capture: every Gaussian copied, sharing its
         # opacity among the copies (bench/_densify.py); against the row above it
-        from causalsplat.bench._densify import densify_folder
-
         dense = densify_folder(folder, work / f"scene0000_00-x{DENSE_COPIES}", DENSE_COPIES,
                                jitter=0.5)  # fmt: skip
         out.append((DENSE_LABEL, dense, None))
@@ -342,21 +342,16 @@ def run(*, quick: bool = False) -> BenchReport:
         work = Path(tmp)
         head, head_rows = _headline(work, quick)
         exact = work / "scene0000_00-exact"
-        losses: tuple[list[str], dict[str, Any]] = ([], {})
-        if exact.is_dir():
-            from causalsplat.bench._build_losses import stage_losses
-
-            losses = stage_losses(exact)
+        losses = stage_losses(exact) if exact.is_dir() else ([], {})
         # the same on scene0000_00 from its noisy masks, and copied DENSE_COPIES times
-        dense_losses: list[tuple[str, list[str]]] = []
-        for name, label in (
-            ("scene0000_00", "the build (default noise)"),
-            (f"scene0000_00-x{DENSE_COPIES}", f"the build (copied {DENSE_COPIES} times)"),
-        ):
-            if (work / name).is_dir():
-                from causalsplat.bench._build_losses import stage_losses
-
-                dense_losses.append((label, stage_losses(work / name, label)[0]))
+        dense_losses = [
+            (label, stage_losses(work / name, label)[0])
+            for name, label in (
+                ("scene0000_00", "the build (default noise)"),
+                (f"scene0000_00-x{DENSE_COPIES}", f"the build (copied {DENSE_COPIES} times)"),
+            )
+            if (work / name).is_dir()
+        ]
         sweep_scene = work / ("synth-tiny-0" if quick else "synth-small-0")
         abl, abl_rows = _ablation(sweep_scene, quick)
         sweep, sweep_rows = _sweeps(sweep_scene, quick)
