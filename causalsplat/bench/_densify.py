@@ -26,6 +26,8 @@ from typing import Literal, get_args
 
 import numpy as np
 
+from causalsplat._checks import Interval, check_fields
+
 #: How ``densify_folder`` sets the copies' opacity (module docstring).
 OpacityRule = Literal["kept", "each"]
 OPACITY_RULES: tuple[str, ...] = get_args(OpacityRule)
@@ -84,11 +86,18 @@ def densify_folder(
     opacity: OpacityRule = "kept",
 ) -> Path:
     """Copy the scene folder ``src`` to ``dst`` with its PLY densified (module docstring)
-    and its GT labels (``gt/gt_labels.npy``, when present) repeated to match."""
+    and its GT labels (``gt/gt_labels.npy``, when present) repeated to match. Raises
+    ``ValueError``, writing nothing, for ``copies`` below 1, a negative ``jitter`` or an
+    unknown ``opacity`` rule."""
     from causalsplat.io import read_gaussian_ply, write_ply
 
-    if opacity not in OPACITY_RULES:
-        raise ValueError(f"opacity={opacity!r} must be one of {', '.join(OPACITY_RULES)}")
+    # every argument checked before anything is written
+    check_fields(
+        "densify_folder",
+        {"copies": copies, "jitter": jitter, "opacity": opacity},
+        {"copies": Interval(1, integer=True), "jitter": Interval(0), "opacity": OPACITY_RULES},
+        ValueError,
+    )
     shutil.copytree(src, dst)
     scene = read_gaussian_ply(dst / "point_cloud.ply").scene
     means, origin = densify_centres(

@@ -75,6 +75,21 @@ def test_kept_opacity_renders_the_objects_where_the_masks_are(tmp_path: Path) ->
     assert changed["each"] > 1.5 * changed["kept"]
 
 
-def test_unknown_opacity_rule_is_refused(tmp_path: Path) -> None:
-    with pytest.raises(ValueError, match="opacity='half' must be one of kept, each"):
-        densify_folder(tmp_path / "nowhere", tmp_path / "out", 2, 0.5, opacity="half")  # type: ignore[arg-type]
+@pytest.mark.parametrize(
+    ("copies", "jitter", "opacity", "message"),
+    [
+        (2, 0.5, "half", r"densify_folder\.opacity must be one of kept, each, got 'half'"),
+        (0, 0.5, "kept", r"densify_folder\.copies must be an integer in \[1, inf\), got 0"),
+        (2, -1.0, "kept", r"densify_folder\.jitter must be in \[0, inf\), got -1\.0"),
+    ],
+)
+def test_bad_arguments_are_refused_before_anything_is_written(
+    tmp_path: Path, copies: int, jitter: float, opacity: str, message: str
+) -> None:
+    from causalsplat.synth import synth_scene
+
+    synth_scene("tiny", 0, tmp_path / "original")
+    with pytest.raises(ValueError, match=message):
+        densify_folder(tmp_path / "original", tmp_path / "out", copies, jitter,
+                       opacity=opacity)  # type: ignore[arg-type]  # fmt: skip
+    assert not (tmp_path / "out").exists()
