@@ -22,7 +22,7 @@ from typing import Any
 from causalsplat._json import JSONInputError, decode_json
 from causalsplat.errors import InputFormatError
 from causalsplat.field import FieldConfig
-from causalsplat.field.lift import VIEW_STORAGES, ViewStorage
+from causalsplat.field.lift import LIFT_RASTER, VIEW_STORAGES, ViewStorage
 from causalsplat.graph import EdgeConfig
 from causalsplat.graph.nodes import NodeConfig
 from causalsplat.instances import InstanceConfig
@@ -44,13 +44,8 @@ class BuildConfigError(InputFormatError):
     """A build config (file or value) is malformed; the message names the key."""
 
 
-_SECTIONS: dict[str, type] = {
-    "raster": RasterConfig,
-    "field": FieldConfig,
-    "instances": InstanceConfig,
-    "nodes": NodeConfig,
-    "edges": EdgeConfig,
-}
+#: The config's sections, each one stage's options (a JSON object in a config file).
+_SECTIONS = ("raster", "field", "instances", "nodes", "edges")
 
 
 @dataclass(frozen=True, slots=True)
@@ -100,7 +95,7 @@ class BuildConfig:
     views: ViewStorage = "auto"
     memory_budget_mib: int | None = None
     huge_pages: bool = False
-    raster: RasterConfig = dataclasses.field(default_factory=RasterConfig)
+    raster: RasterConfig = LIFT_RASTER
     field: FieldConfig = dataclasses.field(default_factory=FieldConfig)
     instances: InstanceConfig = dataclasses.field(default_factory=InstanceConfig)
     nodes: NodeConfig = dataclasses.field(default_factory=NodeConfig)
@@ -189,7 +184,7 @@ class BuildConfig:
         kwargs: dict[str, Any] = {}
         for key, value in document.items():
             if key in _SECTIONS:
-                kwargs[key] = _section(_SECTIONS[key], value, f"{source}: {key}")
+                kwargs[key] = _section(getattr(cls(), key), value, f"{source}: {key}")
             else:
                 kwargs[key] = value
         try:
@@ -209,15 +204,17 @@ class BuildConfig:
         return cls.from_json(document, source=str(path))
 
 
-def _section(kind: type, value: Any, where: str) -> Any:
+def _section(default: Any, value: Any, where: str) -> Any:
+    """A section read from JSON: ``default`` (the build's own default of that section)
+    with the keys ``value`` gives replaced."""
     if not isinstance(value, dict):
         raise BuildConfigError(f"{where}: expected a JSON object, got {type(value).__name__}")
-    names = {f.name for f in fields(kind)}
+    names = {f.name for f in fields(default)}
     unknown = sorted(set(value) - names)
     if unknown:
         raise BuildConfigError(f"{where}: unknown key(s) {unknown}; known: {sorted(names)}")
     try:
-        return kind(**value)
+        return dataclasses.replace(default, **value)
     except (TypeError, ValueError) as exc:
         raise BuildConfigError(f"{where}: {exc}") from exc
 

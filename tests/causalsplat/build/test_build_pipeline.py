@@ -166,10 +166,8 @@ def test_scenes_in_millimetres_and_kilometres(tiny_folder: Path, tmp_path: Path,
         T[:3, 3] *= factor
         cams.append(dataclasses.replace(c, T_cam_world=T))
     write_colmap_model(folder / "sparse" / "0", dataclasses.replace(model, cameras=tuple(cams)))
-    from causalsplat.render import RasterConfig
-
-    near = RasterConfig().near * factor
-    cfg = dataclasses.replace(FAST, raster=RasterConfig(near=near, far=1e10 * factor))
+    raster = dataclasses.replace(FAST.raster, near=FAST.raster.near * factor, far=1e10 * factor)
+    cfg = dataclasses.replace(FAST, raster=raster)
     base = build_scene(tiny_folder, config=FAST, cache_dir=False)
     out = build_scene(folder, config=cfg, cache_dir=False)
     assert [e.category for e in out.graph.entities] == [e.category for e in base.graph.entities]
