@@ -78,7 +78,7 @@ def stage_losses(
         raise ValueError(f"{folder} has no GT labels (gt/gt_labels.npy)")
     g = scene.gaussians
     kwargs = dict(means=g.means, scales=g.scales, quats=g.quats,
-                  mask_labels=mask_labels(scene, evidence))  # fmt: skip
+                  mask_labels=mask_labels(scene, evidence), colors=g.colors)  # fmt: skip
     built = assign_instances(field, evidence, config.instances, **kwargs).labels
     objects = mask_objects(evidence, gt)
     seen = np.asarray(evidence.gaussian_weight.sum(axis=0)).ravel()

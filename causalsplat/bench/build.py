@@ -40,7 +40,6 @@ from causalsplat.bench._build_losses import stage_losses
 from causalsplat.bench._densify import densify_folder
 from causalsplat.build import BuildConfig, build_scene
 from causalsplat.instances import InstanceConfig, instance_quality, scene_quality
-from causalsplat.render import RasterConfig
 
 NAME = "build"
 SCANNET = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "scannet_scene0000_00"
@@ -246,6 +245,7 @@ def _ablation(folder: Path, quick: bool) -> tuple[list[str], list[dict[str, Any]
          InstanceConfig(propagate_coplanar=False)),
         ("surface propagation without feature agreement",
          InstanceConfig(propagate_feature_power=0.0)),
+        ("surface propagation without colour", InstanceConfig(propagate_colour_sigma=0.0)),
     ]:  # fmt: skip
         variants.append((f"spatial, contrastive, uplift init, {name}",
                          dataclasses.replace(base, instances=inst)))  # fmt: skip
@@ -282,8 +282,14 @@ def _sweeps(folder: Path, quick: bool) -> tuple[list[str], list[dict[str, Any]]]
         knobs.append(("views", "all" if v is None else str(v),
                       dataclasses.replace(base, max_views=v)))  # fmt: skip
     for cap in (4, 16, None)[: 1 if quick else 3]:
-        capped = dataclasses.replace(base, raster=RasterConfig(max_contributors=cap))
+        capped = dataclasses.replace(
+            base, raster=dataclasses.replace(base.raster, max_contributors=cap)
+        )
         knobs.append(("contributor cap", "none" if cap is None else str(cap), capped))
+    for tmin in (1e-4, 1e-2, 1e-1)[: 2 if quick else 3]:
+        stop = dataclasses.replace(base.raster, transmittance_min=tmin)
+        knobs.append(("light left when compositing stops", f"{tmin:g}",
+                      dataclasses.replace(base, raster=stop)))  # fmt: skip
     rows = [{"knob": k, "value": v, **_run(folder, cfg)} for k, v, cfg in knobs]
     default = _run(folder, base)
     lines = [
@@ -357,13 +363,16 @@ def run(*, quick: bool = False) -> BenchReport:
         sweep, sweep_rows = _sweeps(sweep_scene, quick)
     d = BuildConfig()
     md = [
-        "Defaults: spatial weighting (w_min 0.4), uplift initialisation, "
+        "Defaults: views composited until "
+        f"{d.raster.transmittance_min:g} of the light is left (images render to 1e-4), "
+        "spatial weighting (w_min 0.4), uplift initialisation, "
         f"{d.field.iterations} contrastive steps, feature width {d.field.feature_dim}, HDBSCAN "
         f"(min cluster {d.instances.min_cluster_size} masks, epsilon "
         f"{d.instances.selection_epsilon}), view votes weighted by feature agreement, "
         f"Gaussians seen less than {d.instances.min_evidence:g}x the median relabelled along "
         f"their surface ({d.instances.propagate_neighbors} neighbours within "
-        f"{d.instances.propagate_sigmas:g} median scales, coplanarity-weighted), "
+        f"{d.instances.propagate_sigmas:g} median scales, coplanarity- and colour-weighted, "
+        f"colour sigma {d.instances.propagate_colour_sigma:g} CIELAB), "
         f"boxes trimmed by {d.nodes.bbox_quantile:g} per side. Masks: the SAM-like noise model "
         "at its default strength (dropped, merged, split and jittered masks, fragments). "
         "Quality on the Gaussians against the GT labels.",

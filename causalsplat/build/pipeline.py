@@ -254,6 +254,7 @@ def _build(
                 field, evidence, config.instances,
                 means=folder.gaussians.means, scales=folder.gaussians.scales,
                 quats=folder.gaussians.quats, mask_labels=mask_labels(folder, evidence),
+                colors=folder.gaussians.colors,
             )  # fmt: skip
             cache.put("instances", inst_key, _encode_assignment(assignment))
     if labeler is None and config.labeler == "vlm":
@@ -309,7 +310,9 @@ def build_field(
 ) -> tuple[SceneFolder, BuildConfig, FeatureField, MaskEvidence]:
     """The stages before the instances, as :func:`build_scene` runs them, uncached: the
     folder as read, the config in force, the feature field and the mask evidence. For
-    analyses of the instance stage (``assign_instances`` on them is the build's)."""
+    analyses of the instance stage: ``assign_instances`` on them, given the folder's
+    Gaussians (``means``, ``scales``, ``quats``, ``colors``) and ``mask_labels``, is the
+    build's."""
     config = config or BuildConfig()
     with single_threaded_blas():
         resolve_trainer(config.field)

@@ -24,8 +24,9 @@
    fewer than ``min_gaussians`` Gaussians are dropped and their Gaussians re-assigned
    among the rest.
 4. On the surface graph (edges at most ``propagate_sigmas`` median scales long,
-   weighted by how well the two Gaussians lie in one plane and by the agreement of their
-   features; see :mod:`causalsplat.instances.propagate`), the well-seen Gaussians' votes
+   weighted by how well the two Gaussians lie in one plane, by the agreement of their
+   features and by how alike their colours are; see
+   :mod:`causalsplat.instances.propagate`), the well-seen Gaussians' votes
    are first smoothed (``vote_smoothing``, :mod:`causalsplat.instances.smooth`: a patch
    of wrong votes goes to the surface around it). Then weakly seen Gaussians (evidence
    below ``min_evidence`` times the median: seen mostly through an occluder, whose masks
@@ -58,7 +59,12 @@ from causalsplat.instances._sparse import csr_row_argmax, csr_row_shares
 from causalsplat.instances.config import InstanceConfig
 from causalsplat.instances.consensus import joined_clusters, overlaps
 from causalsplat.instances.pieces import split_pieces
-from causalsplat.instances.propagate import feature_weighted, harmonic_labels, surface_graph
+from causalsplat.instances.propagate import (
+    colour_weighted,
+    feature_weighted,
+    harmonic_labels,
+    surface_graph,
+)
 from causalsplat.instances.smooth import smoothed_labels
 from causalsplat.instances.structures import cluster_labels, structure_pairs
 
@@ -147,11 +153,13 @@ def assign_instances(
     quats: np.ndarray | None = None,
     mask_labels: Sequence[str | None] | None = None,
     mask_clusters: np.ndarray | None = None,
+    colors: np.ndarray | None = None,
 ) -> InstanceAssignment:
     """Cluster the masks and give every Gaussian an entity (module docstring).
 
     ``means`` (N, 3), ``scales`` (N, 3) and ``quats`` (N, 4, wxyz) of the scene build the
-    surface graph of step 4; without ``quats`` its edges weigh distance only.
+    surface graph of step 4; without ``quats`` its edges weigh distance only, without
+    ``colors`` ((N, 3) sRGB in [0, 1], the Gaussians' base colours) not colour.
     ``mask_labels`` (M,): each usable mask's label (``None`` where it has none), for
     ``InstanceConfig.merge_structures``; without them no cluster is joined by its label.
     ``mask_clusters`` (M,): a cluster per usable mask (integers, -1 for none) to use
@@ -212,7 +220,7 @@ def assign_instances(
     shares = None
     if config.assignment == "vote" and config.vote_smoothing > 0:
         shares = _shares(field.n, scores, rows, kept)
-    labels = _propagate(voted, field, evidence, means, scales, quats, config, shares)
+    labels = _propagate(voted, field, evidence, means, scales, quats, config, shares, colors)
     score = np.where((labels >= 0) & (labels == voted), score, 0.0)
     mask_entity = remap[cluster]
     centers = centers[kept]
@@ -390,6 +398,7 @@ def _propagate(
     quats: np.ndarray | None,
     config: InstanceConfig,
     shares: sp.csr_matrix | None = None,
+    colors: np.ndarray | None = None,
 ) -> np.ndarray:
     """The well-seen Gaussians' votes smoothed along surfaces (with ``shares``, the
     (N, K) vote shares), then weakly seen and unassigned active Gaussians take labels
@@ -412,6 +421,8 @@ def _propagate(
     if config.propagate_feature_power > 0:
         graph = feature_weighted(graph, field.features[active], config.propagate_feature_power,
                                  field.supervised[active])  # fmt: skip
+    if colors is not None and config.propagate_colour_sigma > 0:
+        graph = colour_weighted(graph, np.asarray(colors)[active], config.propagate_colour_sigma)
     out = labels.copy()
     if shares is not None and fixed.any():
         well = np.flatnonzero(fixed)

@@ -19,7 +19,7 @@ from causalsplat.instances import assign_instances, cluster_masks
 def _kwargs(folder: SceneFolder, evidence: MaskEvidence) -> dict[str, Any]:
     g = folder.gaussians
     return dict(means=g.means, scales=g.scales, quats=g.quats,
-                mask_labels=mask_labels(folder, evidence))  # fmt: skip
+                mask_labels=mask_labels(folder, evidence), colors=g.colors)  # fmt: skip
 
 
 def test_the_field_and_its_evidence_give_the_build_s_entities(tiny_folder: Path) -> None:
