@@ -182,9 +182,10 @@ class BuildConfig:
         if unknown:
             raise BuildConfigError(f"{source}: unknown key(s) {unknown}; known: {sorted(top)}")
         kwargs: dict[str, Any] = {}
+        defaults = cls()
         for key, value in document.items():
             if key in _SECTIONS:
-                kwargs[key] = _section(getattr(cls(), key), value, f"{source}: {key}")
+                kwargs[key] = _section(getattr(defaults, key), value, f"{source}: {key}")
             else:
                 kwargs[key] = value
         try:

@@ -58,6 +58,8 @@ all be copies: such a cluster has no edge out at all and keeps its labels.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
@@ -118,7 +120,8 @@ def surface_graph(
 MIN_AGREEMENT = 0.1
 
 
-#: Edges whose feature agreement is computed at once (bounds the memory of a dense graph).
+#: Edges whose weight factor (feature agreement, colour) is computed at once (bounds the
+#: memory of a dense graph).
 EDGE_BLOCK = 1 << 20
 
 
@@ -140,22 +143,13 @@ def feature_weighted(
     """
     coo = sp.coo_matrix(graph)
     f = np.asarray(features)
-    agree = np.empty(coo.nnz, dtype=np.float64)
-    # a block of edges at a time: both ends' features for every edge at once took
-    # 6 GiB on 1.46 M Gaussians
-    for a in range(0, coo.nnz, EDGE_BLOCK):
-        rows, cols = coo.row[a : a + EDGE_BLOCK], coo.col[a : a + EDGE_BLOCK]
-        agree[a : a + rows.size] = np.einsum(
-            "ij,ij->i", f[rows].astype(np.float64), f[cols].astype(np.float64)
-        )
+    agree = _per_edge(coo, lambda rows, cols: np.einsum(
+        "ij,ij->i", f[rows].astype(np.float64), f[cols].astype(np.float64)))  # fmt: skip
     agree = np.clip(agree, MIN_AGREEMENT, None) ** power
     if known is not None:
         known = np.asarray(known, dtype=bool)
         agree[~(known[coo.row] & known[coo.col])] = 1.0
-    weight = coo.data * agree
-    out = sp.csr_matrix((weight, (coo.row, coo.col)), shape=coo.shape)
-    out.eliminate_zeros()
-    return out
+    return _scaled(coo, agree)
 
 
 def colour_weighted(graph: sp.spmatrix, colors: np.ndarray, sigma: float) -> sp.csr_matrix:
@@ -174,11 +168,23 @@ def colour_weighted(graph: sp.spmatrix, colors: np.ndarray, sigma: float) -> sp.
     """
     coo = sp.coo_matrix(graph)
     lab = srgb_to_lab(np.asarray(colors, dtype=np.float64))
-    factor = np.empty(coo.nnz, dtype=np.float64)
+    d2 = _per_edge(coo, lambda rows, cols: ((lab[rows] - lab[cols]) ** 2).sum(axis=1))
+    return _scaled(coo, np.exp(-0.5 * d2 / float(sigma) ** 2))
+
+
+def _per_edge(coo: sp.coo_matrix, of: Callable[[np.ndarray, np.ndarray], np.ndarray]) -> np.ndarray:
+    """(nnz,) float64 ``of(rows, cols)`` for the edges of ``coo``, :data:`EDGE_BLOCK` edges
+    at a time: both ends' features for every edge at once took 6 GiB on 1.46 M
+    Gaussians."""
+    out = np.empty(coo.nnz, dtype=np.float64)
     for a in range(0, coo.nnz, EDGE_BLOCK):
         rows, cols = coo.row[a : a + EDGE_BLOCK], coo.col[a : a + EDGE_BLOCK]
-        d2 = ((lab[rows] - lab[cols]) ** 2).sum(axis=1)
-        factor[a : a + rows.size] = np.exp(-0.5 * d2 / float(sigma) ** 2)
+        out[a : a + rows.size] = of(rows, cols)
+    return out
+
+
+def _scaled(coo: sp.coo_matrix, factor: np.ndarray) -> sp.csr_matrix:
+    """``coo`` with each edge's weight times ``factor`` (nnz,), as CSR without zeros."""
     out = sp.csr_matrix((coo.data * factor, (coo.row, coo.col)), shape=coo.shape)
     out.eliminate_zeros()
     return out
