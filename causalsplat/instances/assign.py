@@ -166,6 +166,12 @@ def assign_instances(
     instead of HDBSCAN's, the rest of the stage unchanged: a grouping made elsewhere, or
     the masks grouped by their GT objects to measure what the clustering costs.
     """
+    if colors is not None:
+        colors = np.asarray(colors, dtype=np.float64)
+        if colors.shape != (field.n, 3) or not np.isfinite(colors).all():
+            raise ValueError(
+                f"colors must be ({field.n}, 3) finite sRGB values, got shape {colors.shape}"
+            )
     if mask_clusters is None:
         raw = cluster_masks(evidence.features, config)
     else:

@@ -242,6 +242,15 @@ def test_an_unseen_back_takes_the_object_its_colour_continues() -> None:
     )
 
 
+@pytest.mark.parametrize("bad", [np.full((15, 3), 0.5), np.full((16, 4), 0.5),
+                                 np.full((16, 3), np.nan)])  # fmt: skip
+def test_colours_of_the_wrong_shape_or_not_finite_are_refused(bad: np.ndarray) -> None:
+    field, evidence, means, scales = _back_against_a_wall()
+    with pytest.raises(ValueError, match=r"colors must be \(16, 3\) finite"):
+        assign_instances(field, evidence, InstanceConfig(min_gaussians=1), means=means,
+                         scales=scales, colors=bad)  # fmt: skip
+
+
 def test_colour_weights_are_the_cielab_distance_block_by_block(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
