@@ -8,7 +8,10 @@ Reads stage 2's :class:`~causalsplat.reason.ground.Grounded` instruction only.
   closest to the anchor of the last relation is taken
   (horizontally for ``above`` and ``below``: the one most directly over or under it), or,
   with no anchor, the one nearest in colour to the phrase's colour word (by the stored
-  colours, when it names one), else the largest; the explanation says so.
+  colours, when it names one), else the largest; the explanation says so. A phrase with
+  a colour word and relations is read three ways, the first that selects anything
+  answering (:func:`_colour_or_relations`): colour and relations as said; relations as
+  said, the nearest in colour of those that fit; the colour, its relations relaxed.
 * A set question keeps every candidate; ``how many`` ends in ``count``, ``is there`` in
   ``exists``.
 * A counterfactual removes the grounded entities and asks what falls
@@ -38,10 +41,11 @@ from __future__ import annotations
 from collections.abc import Iterator
 from dataclasses import dataclass, replace
 
+from causalsplat.colors import colour_phrase
 from causalsplat.reason._builder import SCENE, Because, Note, ProgramBuilder, ProgramTooLong
 from causalsplat.reason.ground import Grounded, Grounding, is_named
-from causalsplat.reason.parse import Instruction
-from causalsplat.reason.topology import Planned, Planner
+from causalsplat.reason.parse import Instruction, NounPhrase
+from causalsplat.reason.topology import COLOUR_CONTRADICTED, Planned, Planner
 from queries import GraphQuery, Metric, Op, QueryResult
 
 
@@ -74,14 +78,18 @@ def decide(builder: ProgramBuilder, grounded: Grounded) -> Decision:
     description whose program would be longer than the language allows is planned again
     with less of it (its last relations, then its appearance words; the explanation says
     what was left out), and answered with nothing when even its bare kind is too much."""
+    fresh = False
     for shorter, why in _shorter(grounded):
-        b = builder if why is None else ProgramBuilder(builder.ctx)
-        if why is not None:
-            b.note(why)
-        try:
-            return _decide(b, shorter)
-        except ProgramTooLong:
-            continue
+        # each description first with every reading, then with the one it plans first
+        for readings in (True, False):
+            b = ProgramBuilder(builder.ctx) if fresh else builder
+            fresh = True
+            if why is not None:
+                b.note(why)
+            try:
+                return _decide(b, shorter, readings=readings)
+            except ProgramTooLong:
+                continue
     b = ProgramBuilder(builder.ctx)
     b.note("the description is too long for one program: nothing was selected")
     return Decision(*b.program(_nothing(b), "intrinsic"))
@@ -116,7 +124,7 @@ def _shorter(grounded: Grounded) -> Iterator[tuple[Grounded, str | None]]:
         )
 
 
-def _decide(builder: ProgramBuilder, grounded: Grounded) -> Decision:
+def _decide(builder: ProgramBuilder, grounded: Grounded, *, readings: bool = True) -> Decision:
     ins = grounded.instruction
     planner = Planner(builder, ins, grounded.anchor_categories)
     if ins.kind == "counterfactual":
@@ -124,7 +132,7 @@ def _decide(builder: ProgramBuilder, grounded: Grounded) -> Decision:
     elif ins.kind == "action":
         answer, qtype = _need(builder, planner, grounded)
     else:
-        answer, qtype = _referring(builder, planner, grounded)
+        answer, qtype = _referring(builder, planner, grounded, readings=readings)
     return Decision(*builder.program(answer, qtype))
 
 
@@ -219,7 +227,9 @@ def _closest_if_singular(b: ProgramBuilder, ins: Instruction, out: Planned) -> i
     return out.step
 
 
-def _referring(b: ProgramBuilder, planner: Planner, grounded: Grounded) -> tuple[int, str]:
+def _referring(
+    b: ProgramBuilder, planner: Planner, grounded: Grounded, *, readings: bool = True
+) -> tuple[int, str]:
     ins = grounded.instruction
     target = ins.target
     assert target is not None
@@ -229,27 +239,97 @@ def _referring(b: ProgramBuilder, planner: Planner, grounded: Grounded) -> tuple
         b.note(g.describe())
     if g is not None and not g.fits:
         return _finish(b, ins, _nothing(b)), "intrinsic"
-    planned = planner.plan(target, singular=singular, categories=None if g is None else g.chosen)
-    assert planned is not None  # grounded categories, or any entity
-    step = planned.step
-    if singular and not b.at_most_one(step):
-        if planned.ends is not None:
-            # "the trash can between the desk and the door": the one most squarely between
-            b.note("{n} candidates fit; took the one nearest the line between them", more=step)
-            ends = b.add(Op.ARGMIN, step, *planned.ends, metric=Metric.SEGMENT_DISTANCE)
-            step = b.coalesce((ends, None), (step, None))
-        elif planned.anchor is not None:
-            anchor = planned.anchor
-            metric = planned.measure or b.distance_to(anchor)
-            what = _CLOSEST_TO.get(metric, "both anchors")
-            b.note(f"{{n}} candidates fit; took the one closest to {what}", more=step)
-            # none measured (the anchor is the candidate itself): it stays
-            closest = b.add(Op.ARGMIN, step, anchor, metric=metric)
-            step = b.coalesce((closest, None), (step, None))
-        else:
-            step = _closest_in_colour_or_largest(b, planner, step, planned, target.attributes)
+    categories = None if g is None else g.chosen
     topological = bool(target.constraints) or ins.viewpoint is not None
+    if not singular:
+        planned = planner.plan(target, singular=False, categories=categories)
+        assert planned is not None  # grounded categories, or any entity
+        return _finish(b, ins, planned.step), ("spatial" if topological else "intrinsic")
+    contradicted = len(planner.contradicted)
+    with b.capture() as said:
+        planned = planner.plan(target, singular=True, categories=categories)
+        assert planned is not None
+        step = _one(b, planner, planned, target.attributes)
+    if readings and target.constraints and len(planner.contradicted) == contradicted:
+        step = _colour_or_relations(b, planner, target, categories, planned, (step, said))
+    else:
+        b.notes.extend(said)
     return _finish(b, ins, step), ("spatial" if topological else "intrinsic")
+
+
+def _one(b: ProgramBuilder, planner: Planner, planned: Planned, words: tuple[str, ...]) -> int:
+    """Of the candidates a singular phrase leaves, one: the one nearest the line between
+    the two ends of a "between", else the closest to its last relation's anchor, else the
+    one nearest in colour to its colour word, else the largest."""
+    step = planned.step
+    if b.at_most_one(step):
+        return step
+    if planned.ends is not None:
+        # "the trash can between the desk and the door": the one most squarely between
+        b.note("{n} candidates fit; took the one nearest the line between them", more=step)
+        ends = b.add(Op.ARGMIN, step, *planned.ends, metric=Metric.SEGMENT_DISTANCE)
+        return b.coalesce((ends, None), (step, None))
+    if planned.anchor is not None:
+        anchor = planned.anchor
+        metric = planned.measure or b.distance_to(anchor)
+        what = _CLOSEST_TO.get(metric, "both anchors")
+        b.note(f"{{n}} candidates fit; took the one closest to {what}", more=step)
+        # none measured (the anchor is the candidate itself): it stays
+        closest = b.add(Op.ARGMIN, step, anchor, metric=metric)
+        return b.coalesce((closest, None), (step, None))
+    return _closest_in_colour_or_largest(b, planner, step, planned, words)
+
+
+def _colour_or_relations(
+    b: ProgramBuilder,
+    planner: Planner,
+    target: NounPhrase,
+    categories: tuple[str, ...] | None,
+    planned: Planned,
+    as_planned: tuple[int, list[Note]],
+) -> int:
+    """A singular phrase with a colour word and relations ("the brown pillow on the
+    sofa") read three ways, in this order: its colour and its relations as said; its
+    relations as said, of those the one nearest in colour (the measured colours of a scan
+    are dim and uneven: of the pillows on the sofa, the brownest, rather than the one
+    brown pillow of the room, elsewhere); then ``as_planned`` (the colour, then the
+    relations relaxed). Only when the colour word narrows the candidates (and does not
+    contradict them: a contradicted colour keeps "none")."""
+    soft = tuple(w for w in target.attributes if colour_phrase(w) is not None)
+    if not soft or planned.base is None:
+        b.notes.extend(as_planned[1])
+        return as_planned[0]
+    rest = tuple(w for w in target.attributes if w not in soft)
+    with b.capture() as uncoloured_notes:
+        uncoloured = planner.plan(
+            replace(target, attributes=rest), singular=True, categories=categories, strict=True
+        )
+    if (
+        uncoloured is None or uncoloured.base is None
+        or b.ids.get(uncoloured.base) == b.ids.get(planned.base)
+    ):  # fmt: skip
+        b.notes.extend(as_planned[1])
+        return as_planned[0]
+    # only colours the word may name (what the scene would not contradict): "the red
+    # pillow on the couch" is none of the couch's tan and white pillows
+    tiers = planner.by_colour(uncoloured.step, uncoloured, soft, within=COLOUR_CONTRADICTED)
+    if not tiers:
+        b.notes.extend(as_planned[1])
+        return as_planned[0]
+    with b.capture() as said_notes:
+        said = planner.plan(target, singular=True, categories=categories, strict=True)
+        assert said is not None
+        exact = _one(b, planner, said, target.attributes)
+    with b.capture() as ranked_notes:
+        nearest = b.coalesce(*((t, None) for t in tiers))
+        ranked = _one(b, planner, replace(uncoloured, step=nearest), soft)
+    why = Note(f"no {' '.join(soft)} one fits its relations as said; of those that do,"
+               " took the nearest in colour")  # fmt: skip
+    return b.coalesce(
+        (exact, said_notes),
+        (ranked, [*uncoloured_notes, *ranked_notes, why]),
+        as_planned,
+    )
 
 
 def _closest_in_colour_or_largest(

@@ -182,6 +182,9 @@ class Planner:
         self.ids = builder.ids
         #: anchor steps whose description the scene contradicts (they select nothing)
         self.contradicted_anchors: set[int] = set()
+        #: plan the target's relations as said, with no relaxation or fallback (a reading
+        #: that selects nothing when the scene does not fit it; see :meth:`plan`)
+        self._strict = False
 
     # -- candidates ----------------------------------------------------------------------
 
@@ -479,11 +482,14 @@ class Planner:
             return out
         return self._union([self._filter(step, "rgb", v) for v in values])
 
-    def by_colour(self, step: int, planned: Planned, words: tuple[str, ...]) -> list[int]:
+    def by_colour(
+        self, step: int, planned: Planned, words: tuple[str, ...], *, within: float | None = None
+    ) -> list[int]:
         """Those of ``step`` of each colour the phrase's candidates have, nearest to the
         phrase's colour word first (the nearest :data:`COLOUR_TIERS`; equally near colours
-        together), for a choice among several left for one; ``[]`` without a colour word,
-        or with fewer than two candidates storing a colour."""
+        together), for a choice among several left for one; ``within``: only colours this
+        near the word. ``[]`` without a colour word, or with fewer than two candidates
+        storing a colour."""
         colour = next((p for w in words if (p := colour_phrase(w)) and p[0] is not None), None)
         if colour is None or planned.base is None:
             return []
@@ -494,7 +500,9 @@ class Planner:
         assert name is not None
         tiers: dict[float, set[str]] = {}
         for rgb in known.values():
-            tiers.setdefault(word_distance(name, rgb, shade), set()).add(rgb_to_hex(rgb))
+            distance = word_distance(name, rgb, shade)
+            if within is None or distance <= within:
+                tiers.setdefault(distance, set()).add(rgb_to_hex(rgb))
         b = self.b
         return [
             b.union([b.add(Op.FILTER_ATTRIBUTE, step, value=f"rgb={h}") for h in sorted(hexes)])
@@ -538,8 +546,17 @@ class Planner:
         singular: bool,
         role: str = "target",
         categories: tuple[str, ...] | None = None,
+        strict: bool = False,
     ) -> Planned | None:
-        """Candidates (``categories`` when grounded), then relations, then modifiers."""
+        """Candidates (``categories`` when grounded), then relations, then modifiers;
+        ``strict``: the phrase's own relations exactly as said, none relaxed and no
+        fallback when one selects nothing (its anchors are planned as usual)."""
+        if strict and not self._strict:
+            self._strict = True
+            try:
+                return self.plan(np, singular=singular, role=role, categories=categories)
+            finally:
+                self._strict = False
         step = self.candidates(np, role=role, categories=categories)
         if step is None:
             return None
@@ -571,7 +588,11 @@ class Planner:
 
     def anchor(self, np: NounPhrase) -> int | None:
         contradicted = len(self.contradicted)
-        planned = self.plan(np, singular=False, role="anchor")
+        strict, self._strict = self._strict, False
+        try:
+            planned = self.plan(np, singular=False, role="anchor")
+        finally:
+            self._strict = strict
         if planned is None:
             return None
         assert planned.base is not None
@@ -621,7 +642,7 @@ class Planner:
                                 selectors=selectors, nth=nth)  # fmt: skip
         if c.negated:
             out = self.b.add(Op.DIFFERENCE, step, related)
-            if singular:
+            if singular and not self._strict:
                 # "the chair that is not at a desk" when every chair is near one: the one
                 # farthest from them
                 anchor = a[0] if len(a) == 1 else self.b.union(a)
@@ -635,7 +656,7 @@ class Planner:
                     f" {_WORDS.get(c.kind, c.kind)} it; took the farthest instead"))  # fmt: skip
             return Planned(out, None)
         anchor = a[0] if len(a) == 1 else self.b.union(a)
-        if singular and anchor == step:
+        if singular and anchor == step and not self._strict:
             # "the trash can next to another trash can" when the words leave one trash can
             # (see _fallback)
             related = self.b.coalesce((related, None), (step, f"{_WORDS.get(c.kind, c.kind)!r}:"
@@ -690,13 +711,13 @@ class Planner:
                 (b.add(Op.RELATE, step, a[0], relation=RelationType.SUPPORTS), None),
                 (b.add(Op.RELATE, step, a[0], relation=RelationType.NEAR), None),
             )
-            if not singular:
+            if not singular or self._strict:
                 return out
             return b.coalesce((out, None), *self._fallback(step, a[0], "with", selectors))
         relation = "near" if kind == "near" else kind
         view = self._viewpoint(kind) or self._facing(kind, a[0])
         out = b.add(Op.RELATE, step, a[0], relation=RelationType(relation), viewpoint=view)
-        if not singular:
+        if not singular or self._strict:
             return out
         alternatives: list[tuple[int, str | None]] = [(out, None)]
         for alt in RELAXATIONS.get(kind, ()):
@@ -770,7 +791,7 @@ class Planner:
     def _between(self, step: int, a1: int, a2: int, *, singular: bool) -> int:
         b = self.b
         out = b.add(Op.RELATE_BETWEEN, step, a1, a2)
-        if not singular:
+        if not singular or self._strict:
             return out
         near = b.add(
             Op.INTERSECT,
