@@ -70,6 +70,16 @@ CUE_PATTERNS: tuple[tuple[str, str], ...] = (
                  # "on the other side of the table" (not "... of the room": a place)
                  r"(?:on|at|to) the (?:other|opposite) side of(?= (?:the|a|an|this) (?!"
                  + _ROOM + r"\b))"),
+    # "on the long side of the table", "at the side of the desk": beside it, not on it;
+    # the far / near side of it is behind / in front of it as the observer sees it (not
+    # "... of the room": a place)
+    ("near", r"(?:on|at|by|along|to) (?:the|one|either|each) (?:(?!(?:left|right|other|"
+             r"opposite|far|near|back|front)\b)[a-z]+ )?side of(?= (?:the|a|an|this) (?!"
+             + _ROOM + r"\b))"),
+    ("behind", r"(?:on|at|to) the far(?:ther|thest)? side of(?= (?:the|a|an|this) (?!"
+               + _ROOM + r"\b))"),
+    ("in_front_of", r"(?:on|at) the near(?:er|est)? side of(?= (?:the|a|an|this) (?!"
+                    + _ROOM + r"\b))"),
     ("near", r"(?:(?:right|directly|just|located|placed|sitting|standing) )?"
              r"(?:near(?: to)?|next to|beside|besides|by(?! (?:it|them)sel)|adjacent to|"
              r"alongside|close to|"

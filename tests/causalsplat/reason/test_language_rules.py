@@ -346,6 +346,25 @@ def test_on_the_other_side_of_a_thing_is_across_from_it() -> None:
     assert ins.target is not None and "opposite" not in [c.kind for c in ins.target.constraints]
 
 
+@pytest.mark.parametrize(
+    ("text", "kinds"),
+    [("the stool on the long side of the stove", ["near"]),
+     ("the stool at the side of the stove", ["near"]),
+     ("the stool on the far side of the stove", ["behind"]),
+     ("the stool on the near side of the stove", ["in_front_of"]),
+     ("the stool on the left side of the stove", ["left_of"]),
+     ("the stool on the stove", ["supported_by"])],
+)  # fmt: skip
+def test_a_side_of_a_thing_is_beside_it_not_on_it(text: str, kinds: list[str]) -> None:
+    # "on the long side of the table" places a chair by the table, never on it; its far
+    # and near sides are behind and in front of it as the observer sees it
+    ins = REASONER.parse(text, _scene(KITCHEN))
+    assert ins.target is not None and [c.kind for c in ins.target.constraints] == kinds
+    # the side of the room is a place, no relation to a room
+    ins = REASONER.parse("the stool on the far side of the room", _scene(KITCHEN))
+    assert ins.target is not None and not ins.target.constraints
+
+
 def test_a_negated_relation_every_candidate_meets_takes_the_farthest() -> None:
     # both chairs stand at the desk; "not at the desk" then means the one farther from it
     boxes: list[Box] = [
