@@ -241,20 +241,22 @@ def _referring(
         return _finish(b, ins, _nothing(b)), "intrinsic"
     categories = None if g is None else g.chosen
     topological = bool(target.constraints) or ins.viewpoint is not None
+    qtype = "spatial" if topological else "intrinsic"
     if not singular:
         planned = planner.plan(target, singular=False, categories=categories)
         assert planned is not None  # grounded categories, or any entity
-        return _finish(b, ins, planned.step), ("spatial" if topological else "intrinsic")
+        return _finish(b, ins, planned.step), qtype
     contradicted = len(planner.contradicted)
     with b.capture() as said:
         planned = planner.plan(target, singular=True, categories=categories)
         assert planned is not None
         step = _one(b, planner, planned, target.attributes)
+    read = None
     if readings and target.constraints and len(planner.contradicted) == contradicted:
-        step = _colour_or_relations(b, planner, target, categories, planned, (step, said))
-    else:
+        read = _colour_or_relations(b, planner, target, categories, planned, (step, said))
+    if read is None:
         b.notes.extend(said)
-    return _finish(b, ins, step), ("spatial" if topological else "intrinsic")
+    return _finish(b, ins, step if read is None else read), qtype
 
 
 def _one(b: ProgramBuilder, planner: Planner, planned: Planned, words: tuple[str, ...]) -> int:
@@ -287,35 +289,32 @@ def _colour_or_relations(
     categories: tuple[str, ...] | None,
     planned: Planned,
     as_planned: tuple[int, list[Note]],
-) -> int:
+) -> int | None:
     """A singular phrase with a colour word and relations ("the brown pillow on the
     sofa") read three ways, in this order: its colour and its relations as said; its
     relations as said, of those the one nearest in colour (the measured colours of a scan
     are dim and uneven: of the pillows on the sofa, the brownest, rather than the one
     brown pillow of the room, elsewhere); then ``as_planned`` (the colour, then the
-    relations relaxed). Only when the colour word narrows the candidates (and does not
-    contradict them: a contradicted colour keeps "none")."""
+    relations relaxed, with its notes). ``None`` (``as_planned`` alone) unless the colour
+    word narrows the candidates and some that fit the relations may be called that (a
+    colour the scene contradicts keeps its "none")."""
     soft = tuple(w for w in target.attributes if colour_phrase(w) is not None)
     if not soft or planned.base is None:
-        b.notes.extend(as_planned[1])
-        return as_planned[0]
+        return None
     rest = tuple(w for w in target.attributes if w not in soft)
     with b.capture() as uncoloured_notes:
         uncoloured = planner.plan(
             replace(target, attributes=rest), singular=True, categories=categories, strict=True
         )
-    if (
-        uncoloured is None or uncoloured.base is None
-        or b.ids.get(uncoloured.base) == b.ids.get(planned.base)
-    ):  # fmt: skip
-        b.notes.extend(as_planned[1])
-        return as_planned[0]
+    if uncoloured is None or uncoloured.base is None:
+        return None
+    if b.ids.get(uncoloured.base) == b.ids.get(planned.base):
+        return None  # the colour word keeps every candidate: nothing to rank
     # only colours the word may name (what the scene would not contradict): "the red
     # pillow on the couch" is none of the couch's tan and white pillows
     tiers = planner.by_colour(uncoloured.step, uncoloured, soft, within=COLOUR_CONTRADICTED)
     if not tiers:
-        b.notes.extend(as_planned[1])
-        return as_planned[0]
+        return None
     with b.capture() as said_notes:
         said = planner.plan(target, singular=True, categories=categories, strict=True)
         assert said is not None
