@@ -13,6 +13,7 @@ from causalsplat.objects import objects_to_scene_graph, parse_objects
 from causalsplat.reason import SceneContext
 from causalsplat.reason.offline import OfflineReasoner
 from queries import make_executor
+from tests.causalsplat.reason.test_planned_once import CountingExecutor
 
 LEXICAL = OfflineReasoner(embeddings=False)
 
@@ -55,7 +56,7 @@ def test_relations_as_said_then_the_nearest_in_colour_of_those_that_fit() -> Non
     assert white.entity_ids == (3,) and "as said" not in white.explanation
 
 
-@pytest.mark.parametrize("executor", ["networkx", "memory"])
+@pytest.mark.parametrize("executor", ["networkx", "memory", "sql", "sparql"])
 def test_the_program_holds_every_reading(executor: str) -> None:
     # one program: the colour filter, the relation as said on the pillows, and their
     # colour ranking, joined by coalesce; any executor answers it the same
@@ -81,3 +82,11 @@ def test_a_colour_the_scene_contradicts_still_answers_nothing() -> None:
     ctx = _living_room(on_couch=((40, 60, 160), (30, 50, 140)), on_floor=(35, 55, 150))
     answer = LEXICAL.answer("the yellow pillow on the couch", ctx)
     assert answer.entity_ids == () and answer.nothing_fits
+
+
+def test_the_readings_are_one_program_run_once() -> None:
+    graph = _living_room().graph
+    counting = CountingExecutor(make_executor(graph, "living", executor="memory"))
+    answer = LEXICAL.answer("the brown pillow on the couch", SceneContext(graph, executor=counting))
+    assert answer.entity_ids == (2,)
+    assert len(counting.runs) == 1 and counting.runs[0] == answer.program
