@@ -80,8 +80,10 @@ def decide(builder: ProgramBuilder, grounded: Grounded) -> Decision:
     what was left out), and answered with nothing when even its bare kind is too much."""
     fresh = False
     for shorter, why in _shorter(grounded):
-        # each description first with every reading, then with the one it plans first
-        for readings in (True, False):
+        # a referring expression first with every reading, then with the one it plans
+        # first (the readings are its only alternatives)
+        tries = (True, False) if shorter.instruction.kind == "refer" else (True,)
+        for readings in tries:
             b = ProgramBuilder(builder.ctx) if fresh else builder
             fresh = True
             if why is not None:

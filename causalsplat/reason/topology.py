@@ -44,7 +44,8 @@ Relations, by kind (the singular case is a referring expression that must name o
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, replace
 
 from causalsplat.colors import (
@@ -551,12 +552,26 @@ class Planner:
         """Candidates (``categories`` when grounded), then relations, then modifiers;
         ``strict``: the phrase's own relations exactly as said, none relaxed and no
         fallback when one selects nothing (its anchors are planned as usual)."""
-        if strict and not self._strict:
-            self._strict = True
-            try:
-                return self.plan(np, singular=singular, role=role, categories=categories)
-            finally:
-                self._strict = False
+        with self._as_said(strict or self._strict):
+            return self._plan(np, singular=singular, role=role, categories=categories)
+
+    @contextmanager
+    def _as_said(self, strict: bool) -> Iterator[None]:
+        """Relations planned strictly (or not) inside the block, as before after it."""
+        before, self._strict = self._strict, strict
+        try:
+            yield
+        finally:
+            self._strict = before
+
+    def _plan(
+        self,
+        np: NounPhrase,
+        *,
+        singular: bool,
+        role: str,
+        categories: tuple[str, ...] | None,
+    ) -> Planned | None:
         step = self.candidates(np, role=role, categories=categories)
         if step is None:
             return None
@@ -588,11 +603,8 @@ class Planner:
 
     def anchor(self, np: NounPhrase) -> int | None:
         contradicted = len(self.contradicted)
-        strict, self._strict = self._strict, False
-        try:
+        with self._as_said(False):
             planned = self.plan(np, singular=False, role="anchor")
-        finally:
-            self._strict = strict
         if planned is None:
             return None
         assert planned.base is not None
