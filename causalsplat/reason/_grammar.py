@@ -13,6 +13,14 @@ from dataclasses import dataclass
 
 from queries import Metric, Op
 
+#: Words for rooms, never an anchor object of their own.
+ROOMS = frozenset({"room", "bedroom", "bathroom", "kitchen", "office", "hallway", "hall",
+                   "lobby", "classroom", "restroom", "lounge", "studio", "apartment",
+                   "closet"})  # fmt: skip
+#: Rooms that, right before a noun, say where the thing is rather than what kind of thing
+#: it is: "the bathroom door" is the door by the bathroom. Not "office" (an office chair is
+#: a kind of chair, wherever it stands) nor "closet" (a thing of its own).
+ROOM_MODIFIERS = frozenset({"bedroom", "bathroom", "kitchen", "restroom"})
 #: Relation kinds a cue can name. Stored relations keep their RelationType value;
 #: ``closest`` / ``farthest`` / ``between`` / ``with`` are handled by the planner.
 _SIDE = r"(?:(?:to|on|at|towards?) )?(?:the )?(?:(?:far|very) )?"
@@ -65,6 +73,9 @@ CUE_PATTERNS: tuple[tuple[str, str], ...] = (
                 r"(?:(?:on|at|along|against|by|in) )?(?:the )?same "
                 r"(?:side|wall|end|corner|part|half)(?: of (?:the|this) " + _ROOM + r")? as"
                 r"(?: (?:where|what))?"),
+    # "the door to the bathroom", "the one that opens into the kitchen": by that room
+    ("closest", r"(?:(?:leads?|leading|opens?|opening|open|goes|going) )?(?:in)?to the"
+                r"(?= (?:" + "|".join(sorted(ROOM_MODIFIERS)) + r")\b)"),
     ("opposite", r"(?:(?:directly|right|just|diagonally) )?"
                  r"(?:across from|opposite(?: to| from| of)?)|"
                  # "on the other side of the table" (not "... of the room": a place)

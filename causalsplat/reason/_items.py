@@ -11,7 +11,7 @@ target.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from causalsplat.colors import SHADES, is_color_word
 from causalsplat.reason import _grammar as g
@@ -476,6 +476,18 @@ def read_items(
             pending.append((i, Modifier("attribute", shade[0])))
             i = shade[1]
             continue
+        located = _room_modified(index, tokens, i)
+        if located is not None:
+            # "the bathroom door": the door closest to the bathroom
+            room, head = located
+            mods = [m for _, m in pending]
+            mods = _compound(items, tokens, index, head, mods, i)
+            items.append(Item(i, head.end, np=_noun_phrase(head, mods)))
+            items.append(Item(i, i + 1, cue=g.Cue("closest", i, i + 1)))
+            items.append(Item(i, i + 1, np=_noun_phrase(room, [])))
+            pending.clear()
+            i = head.end
+            continue
         mention = mention_at(index, tokens, i)
         if mention is not None:
             mods = _compound(items, tokens, index, mention, [m for _, m in pending], i)
@@ -520,6 +532,28 @@ def read_items(
         i += 1
     flush()
     return items
+
+
+def _room_modified(
+    index: CategoryIndex, tokens: tuple[str, ...], i: int
+) -> tuple[Mention, Mention] | None:
+    """A room word at ``i`` right before a noun naming a scene category, where the two do
+    not name one together (:data:`~causalsplat.reason._grammar.ROOM_MODIFIERS`): the room
+    says where the thing is ("the bathroom door"), not what it is: "the kitchen cabinets",
+    "the bathroom stall door" stay what the scene calls them.
+    Returns the room (resolved as an anchor phrase, possibly to nothing) and the head."""
+    if tokens[i] not in g.ROOM_MODIFIERS or i + 1 >= len(tokens):
+        return None
+    whole = mention_at(index, tokens, i)
+    head = mention_at(index, tokens, i + 1)
+    if head is None or head.generic:
+        return None
+    if whole is not None and whole.end > i + 1:
+        return None
+    room = whole or foreign_at(index, (tokens[i],), 0)
+    if room is None:
+        room = Mention(0, 1, tokens[i], (), 0.0)
+    return replace(room, start=i, end=i + 1), head
 
 
 def _its_own(mod: Modifier) -> bool:

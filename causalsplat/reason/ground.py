@@ -65,6 +65,7 @@ from causalsplat.reason._grammar import (
     PARTICLES,
     POSSESSIVES,
     PRONOUNS,
+    ROOMS,
     state_at,
 )
 from causalsplat.reason._mentions import NAMED, CategoryIndex, mention_at
@@ -135,10 +136,6 @@ DESCRIBED = 0.6
 #: Lowest meaning score for an anchor that names nothing the scene holds to stand for a
 #: scene category (stricter than :data:`DESCRIBED`: a wrong anchor misleads the relation).
 ANCHOR_FITS = 0.62
-#: Words for rooms, never an anchor object.
-ROOMS = frozenset({"room", "bedroom", "bathroom", "kitchen", "office", "hallway", "hall",
-                   "lobby", "classroom", "restroom", "lounge", "studio", "apartment",
-                   "closet"})  # fmt: skip
 #: Candidates kept on an answer.
 TOP_K = 5
 #: A category that affords what the best one affords for a need joins it when it scores

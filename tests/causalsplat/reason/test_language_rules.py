@@ -365,6 +365,45 @@ def test_a_side_of_a_thing_is_beside_it_not_on_it(text: str, kinds: list[str]) -
     assert ins.target is not None and not ins.target.constraints
 
 
+#: An apartment: a bathroom (toilet, bathtub) in the west, a kitchen (stove, fridge) in
+#: the east, a door and a towel at each.
+APARTMENT: list[Box] = [
+    (1, "toilet", (-4.0, 0.0, 0.4), (0.4, 0.7, 0.8)),
+    (2, "bathtub", (-4.5, 2.0, 0.3), (0.8, 1.6, 0.6)),
+    (3, "stove", (4.0, 0.0, 0.45), (0.8, 0.7, 0.9)),
+    (4, "refrigerator", (4.5, 2.0, 0.9), (0.8, 0.7, 1.8)),
+    (5, "door", (4.0, -1.5, 1.0), (0.9, 0.1, 2.0)),
+    (6, "door", (-3.0, -1.5, 1.0), (0.9, 0.1, 2.0)),
+    (7, "towel", (-3.3, -1.3, 1.1), (0.4, 0.1, 0.6)),
+    (8, "towel", (3.7, -1.3, 1.1), (0.4, 0.1, 0.6)),
+    (9, "kitchen cabinets", (4.0, 1.0, 2.0), (1.0, 0.4, 0.8)),
+    (10, "kitchen cabinets", (-1.0, 3.0, 2.0), (1.0, 0.4, 0.8)),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [("the bathroom door", (6,)), ("the kitchen door", (5,)),
+     ("the door to the bathroom", (6,)), ("the door that opens into the kitchen", (5,)),
+     ("the white bathroom door", (6,)), ("the towel by the bathroom door", (7,))],
+)  # fmt: skip
+def test_a_room_before_a_noun_or_after_to_says_where_it_is(
+    text: str, expected: tuple[int, ...]
+) -> None:
+    # a room names no entity, but what is found only there tells where it is: "the
+    # bathroom door" is the door by the toilet and bathtub, not a kind of door
+    assert ask(_scene(APARTMENT), text) == expected
+
+
+def test_a_room_that_is_part_of_a_name_stays_the_name() -> None:
+    # "kitchen cabinets" is what the scene calls them; "the kitchen cabinets by the
+    # bathtub" is the one there, not the kitchen's
+    scene = _scene(APARTMENT)
+    assert ask(scene, "the kitchen cabinets closest to the bathtub") == (10,)
+    ins = REASONER.parse("the kitchen cabinets", scene)
+    assert ins.target is not None and not ins.target.constraints
+
+
 def test_a_negated_relation_every_candidate_meets_takes_the_farthest() -> None:
     # both chairs stand at the desk; "not at the desk" then means the one farther from it
     boxes: list[Box] = [
