@@ -880,7 +880,32 @@ class Planner:
             self._placing_viewpoint = False
         if planned is None:
             return None
-        return self.b.within(planned.step)
+        ids = self.b.within(planned.step)
+        if np is self.instruction.viewpoint and not self.instruction.standing_at:
+            ids = self._faced(ids)
+        return ids
+
+    def _faced(self, ids: tuple[int, ...] | None) -> tuple[int, ...] | None:
+        """Of several entities a viewpoint faces ("facing the windows", "facing the wall
+        with bags on it"), the one nearest the target's candidates: the observer faces the
+        window the monitors stand by, not the middle of windows on opposite walls. A group
+        the target is one of is faced as a whole ("facing the three chairs, the right
+        one")."""
+        target = self.instruction.target
+        if not ids or len(ids) == 1 or target is None or not target.categories:
+            return ids
+        wanted = set(target.categories)
+        cands = [e for e in self.ctx.by_id.values() if e.category in wanted]
+        if not cands or any(e.id in ids for e in cands):
+            return ids
+        x = math.fsum(e.centroid[0] for e in cands) / len(cands)
+        y = math.fsum(e.centroid[1] for e in cands) / len(cands)
+
+        def away(i: int) -> tuple[float, int]:
+            c = self.ctx.by_id[i].centroid
+            return math.hypot(c[0] - x, c[1] - y), i
+
+        return (min(ids, key=away),)
 
     def _mean_centroid(self, ids: tuple[int, ...] | None) -> list[float] | None:
         """The mean centroid of the entities ``ids`` (``None`` for none, or unknown)."""

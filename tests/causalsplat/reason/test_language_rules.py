@@ -404,6 +404,26 @@ def test_a_room_that_is_part_of_a_name_stays_the_name() -> None:
     assert ins.target is not None and not ins.target.constraints
 
 
+def test_facing_several_things_faces_the_one_the_target_is_by() -> None:
+    # windows on the north and south walls; the monitors stand by the south one. Facing
+    # "the windows" is facing the south window (looking -y: +x is on the left), not the
+    # middle of the room between the two
+    boxes: list[Box] = [
+        (1, "window", (0.0, 3.0, 1.5), (1.2, 0.1, 1.2)),
+        (2, "window", (0.4, -3.0, 1.5), (1.2, 0.1, 1.2)),
+        (3, "monitor", (-0.6, -2.0, 1.0), (0.5, 0.2, 0.4)),
+        (4, "monitor", (0.0, -2.0, 1.0), (0.5, 0.2, 0.4)),
+        (5, "monitor", (0.6, -2.0, 1.0), (0.5, 0.2, 0.4)),
+        (6, "desk", (0.0, -2.1, 0.4), (2.0, 0.8, 0.8)),
+    ]
+    scene = _scene(boxes)
+    assert ask(scene, "facing the windows, the monitor on the left") == (5,)
+    assert ask(scene, "the second monitor from the right when facing the windows") == (4,)
+    assert ask(scene, "facing the windows, the monitor on the right") == (3,)
+    # a group the target belongs to is faced as a whole: from the room's middle
+    assert ask(scene, "facing the monitors, the one on the left") == (5,)
+
+
 def test_a_negated_relation_every_candidate_meets_takes_the_farthest() -> None:
     # both chairs stand at the desk; "not at the desk" then means the one farther from it
     boxes: list[Box] = [
