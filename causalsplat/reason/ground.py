@@ -319,8 +319,10 @@ class Grounder:
     ) -> tuple[tuple[NounPhrase, Grounding], ...]:
         """Anchors whose words name no scene category, grounded by meaning when one fits
         well (:data:`ANCHOR_FITS`): "the chair next to the bookcase" in a scene with a
-        bookshelf. Rooms ("the bedroom") stay unknown, and so does an anchor that would
-        mean the target's own categories (``chosen``: "the sink under the faucet")."""
+        bookshelf. A room ("closest to the kitchen") is what is found there only
+        (:meth:`_room`), but not the room a thing is in ("the stool in the kitchen": the
+        scan may be all kitchen). An anchor that would mean the target's own categories
+        stays unknown (``chosen``: "the sink under the faucet")."""
         out: list[tuple[NounPhrase, Grounding]] = []
         stack = [target]
         while stack:
@@ -329,7 +331,14 @@ class Grounder:
                 for a in c.anchors:
                     stack.append(a)
                     m = a.mention
-                    if m is None or m.generic or a.categories or m.phrase in ROOMS:
+                    if m is None or m.generic or a.categories:
+                        continue
+                    if m.phrase in ROOMS:
+                        # "in the kitchen" of a scan that may be all kitchen says nothing
+                        # of which one; "closest to the kitchen" does
+                        room = None if c.kind == "inside" else self._room(m.phrase)
+                        if room is not None and not set(room.chosen) & set(chosen):
+                            out.append((a, room))
                         continue
                     g = self._rank("described", m.phrase, {}, fits=ANCHOR_FITS, phrase=True)
                     if not g.chosen:
@@ -337,6 +346,22 @@ class Grounder:
                     if g.chosen and not set(g.chosen) & set(chosen):
                         out.append((a, g))
         return tuple(out)
+
+    def _room(self, phrase: str) -> Grounding | None:
+        """A room by what is found there only, by the knowledge table (``found_in`` names
+        that room alone): "the kitchen" is the scene's stove and refrigerator, "the bedroom"
+        its nightstands and dressers; ``None`` when the scene has none of them."""
+        knowledge = self._knowledge()
+        room = "bathroom" if phrase == "restroom" else phrase
+        found = []
+        for c in self.ctx.categories:
+            entry = facts_for(c, knowledge, self.lexicon)
+            if entry is not None and entry.found_in == (room,):
+                found.append(Candidate(c, 1.0, 1.0, 0.0, f"{c}: found in the {room}"))
+        if not found:
+            return None
+        chosen = tuple(sorted({c.category for c in found}))
+        return Grounding("described", phrase, tuple(found[:TOP_K]), chosen, "knowledge")
 
     def _at_it(self, phrase: str) -> Grounding | None:
         """What stands where an absent kind would be: the scene categories the knowledge

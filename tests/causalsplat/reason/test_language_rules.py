@@ -395,6 +395,16 @@ def test_a_room_before_a_noun_or_after_to_says_where_it_is(
     assert ask(_scene(APARTMENT), text) == expected
 
 
+def test_a_room_no_scene_name_holds_is_what_is_found_only_there() -> None:
+    # without kitchen cabinets nothing here is named for the kitchen: the knowledge
+    # table's stove and refrigerator (found in the kitchen only) stand for it
+    scene = _scene([b for b in APARTMENT if b[1] != "kitchen cabinets"])
+    assert ask(scene, "the kitchen door") == (5,)
+    assert ask(scene, "the towel nearest the kitchen") == (8,)
+    answer = REASONER.answer("the door to the kitchen", scene)
+    assert answer.entity_ids == (5,) and "found in the kitchen" in answer.explanation
+
+
 def test_a_room_that_is_part_of_a_name_stays_the_name() -> None:
     # "kitchen cabinets" is what the scene calls them; "the kitchen cabinets by the
     # bathtub" is the one there, not the kitchen's
