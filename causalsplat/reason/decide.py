@@ -182,6 +182,10 @@ def _need(b: ProgramBuilder, planner: Planner, grounded: Grounded) -> tuple[int,
             if not all(is_named(a) for a in constraint.anchors):
                 b.note(f"relation {constraint.kind!r} not used: its anchor is not named")
                 continue
+            if g.chosen and set(g.chosen) <= {c for a in constraint.anchors for c in a.categories}:
+                # "wash my hands at the sink": the sink, the place where it is done
+                b.note(f"the need is met at {', '.join(g.chosen)} itself")
+                continue
             out = planner.relation(step, constraint, singular=False, selectors=False)
             if out is None:
                 continue

@@ -136,6 +136,8 @@ DESCRIBED = 0.6
 #: Lowest meaning score for an anchor that names nothing the scene holds to stand for a
 #: scene category (stricter than :data:`DESCRIBED`: a wrong anchor misleads the relation).
 ANCHOR_FITS = 0.62
+#: Relations of a need that may say where it is met ("at the sink", "on the TV").
+_PLACES_OF_DOING = frozenset({"near", "inside", "supported_by"})
 #: Candidates kept on an answer.
 TOP_K = 5
 #: A category that affords what the best one affords for a need joins it when it scores
@@ -454,15 +456,19 @@ class Grounder:
             own[c] = self.meaning_of(masked, c)
         named = {c: v[2] for c, v in acted.items()}
         patient = patient_verb(ins.main_tokens[_context_end(ins) :], self.lexicon)
-        patients = {c: v for c, v in named.items() if c not in itself}
+        # where the need is met, when that place does what it asks ("wash my hands at the
+        # sink"), is what it asks for, not a thing it merely mentions
+        doers = self._doing_anchors(constraints, verbs)
+        patients = {c: v for c, v in named.items() if c not in itself and c not in doers}
         # what the need is related to ("on my TV"), where the scene holds only that one of
         # its kind, is never what it asks for: the answer would be related to itself
         where: frozenset[str] = frozenset()
         if constraints:
             held = Counter(e.category for e in self.ctx.by_id.values())
             where = frozenset(
-                c for con in constraints for a in con.anchors for c in a.categories if held[c] == 1
-            )
+                c for con in constraints for a in con.anchors for c in a.categories
+                if held[c] == 1 and c not in doers
+            )  # fmt: skip
         ranked = self._rank("intent", query, patients, need=True, own=own, patient=patient,
                             verbs=verbs, anchors=where)  # fmt: skip
         ranked = self._verb_gate(ranked, verbs)
@@ -654,6 +660,18 @@ class Grounder:
             chosen = tuple(sorted(c.category for c in eligible if abs(c.score - top) <= TIE))
         return Grounding(how, query, tuple(cands[:TOP_K]), chosen, self.scorer.method,
                          reference=reference, stands_for=stands_for)  # fmt: skip
+
+    def _doing_anchors(self, constraints: Iterable[Constraint], verbs: NeedVerbs) -> frozenset[str]:
+        """The categories a need's relations name (their anchors) that do what the need
+        asks, by the knowledge table (``verb_fit`` at least :data:`VERB_DOES`): "at the
+        sink" for washing hands, "on the TV" for watching a film; not "at the sink" for
+        drying hands, nor "on my TV" for changing the channel (a remote's doing)."""
+        knowledge = self._knowledge()
+        return frozenset(
+            c for con in constraints if con.kind in _PLACES_OF_DOING
+            for a in con.anchors for c in a.categories
+            if verb_fit(verbs, facts_for(c, knowledge, self.lexicon), self.lexicon) >= VERB_DOES
+        )  # fmt: skip
 
     def _kind_of_reference(self, reference: tuple[str, float], category: str) -> bool:
         """``category`` names what the reference, absent here, is a kind of (the scene's

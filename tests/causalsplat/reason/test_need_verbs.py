@@ -348,6 +348,24 @@ def test_what_a_need_relates_to_is_never_what_it_asks_for(
     assert got.categories and not {"tv", "sink"} & set(got.categories), got.explanation
 
 
+@pytest.mark.parametrize(
+    ("text", "answer"),
+    [("I want to wash my hands at the sink", "sink"),
+     ("I need to dry my hands at the sink", "towel"),
+     ("I want to watch a movie on the tv", "tv"),
+     ("I want to change the channel on my TV.", "remote")],
+)  # fmt: skip
+def test_where_a_need_is_met_answers_it_when_it_does_what_is_asked(
+    reasoner: OfflineReasoner, text: str, answer: str
+) -> None:
+    # hands are washed at the sink (the knowledge table: a sink affords washing hands), so
+    # "at the sink" names the answer; they are dried with a towel, only beside the sink;
+    # a film is watched on the TV, its channel changed with the remote
+    room = _room("tv", "remote", "couch", "sink", "towel", "shower", "speaker")
+    got = reasoner.answer(text, room)
+    assert got.categories == (answer,), got.explanation
+
+
 def test_another_of_the_kind_a_need_relates_to_may_answer_it(reasoner: OfflineReasoner) -> None:
     # with two stools, "near the stool" leaves the other one to sit on; only the one TV
     # of a room is never the thing to change its channel with
