@@ -64,6 +64,11 @@ CUE_PATTERNS: tuple[tuple[str, str], ...] = (
     ("farthest", r"(?:the )?(?:(?:farthest|furthest|farther|further|far)(?: away)?|away) from|"
                  r"(?:the )?(?:farthest|furthest)(?= (?!left |right |to )(?:\S+ ){1,3}from )"),
     ("closest", r"(?:the )?(?:closest|nearest|closer|nearer)(?: to)?|"
+                # "closes to the sink": a common slip for "closest to"
+                r"closes to|"
+                # "with its back to the wall", "has its back to the kitchen": turned away
+                # from it, and by it
+                r"(?:with |has |have )?(?:its|their) backs? (?:turned |facing )?(?:to|towards?)|"
                 # "it is facing a stool", "the one that faces the table": turned to it,
                 # read as the closest to it (the observer facing a thing is a viewpoint)
                 r"(?<!you are )(?<!you're )(?<!youre )(?<!you )(?<!i am )(?<!we are )"

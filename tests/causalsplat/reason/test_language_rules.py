@@ -446,6 +446,19 @@ def test_a_negated_relation_every_candidate_meets_takes_the_farthest() -> None:
     assert ask(scene, "the chair that is not next to the desk") == (3,)
 
 
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [("the stool closes to the bookshelf", (4,)), ("the stool closes to the stove", (3,)),
+     ("the stool with its back to the bookshelf", (4,)),
+     ("the stool that has its back turned to the stove", (3,))],
+)  # fmt: skip
+def test_closes_to_and_a_back_turned_to_a_thing_are_by_it(
+    text: str, expected: tuple[int, ...]
+) -> None:
+    # "closes to" is a slip for "closest to"; a seat with its back to the wall is by it
+    assert ask(_scene(KITCHEN), text) == expected
+
+
 def test_closest_before_its_noun_qualifies_that_noun() -> None:
     # "the closest chair to the monitor" is a chair (it was read as "closest to the chair")
     scene = _scene(KITCHEN)
