@@ -45,7 +45,9 @@ CUE_PATTERNS: tuple[tuple[str, str], ...] = (
                     r"rest)(?: of)?| of the(?= " + _COUNT + " ))?"),
     ("place_centre", r"(?:(?:in|at|near|towards?|by) )?the (?:very |exact )?"
                      r"(?:middle|center|centre) of (?:the|this) " + _ROOM),
-    ("place_corner", r"(?:in|at|into|near|towards?|by) (?:the|a) (?:far )?corner"
+    ("place_corner", r"(?:in|at|on|into|near|towards?|by) (?:the|a) (?:(?:far|back|front|"
+                     r"(?:north|south)?(?:east|west)|north|south|northern|southern|eastern|"
+                     r"western) )?corner"
                      r"(?: of (?:the|this) " + _ROOM + r"|(?! of))"),
     ("place_alone", r"(?:all )?(?:by (?:it|them)sel(?:f|ves)|on (?:its|their) own|alone|"
                     r"isolated|apart from the others)"),

@@ -381,9 +381,14 @@ def read_items(
             and pending
             and pending[-1][1].kind == "attribute"
             and i + 1 < len(tokens)
-            and colour_word(index.lexicon, tokens[i + 1])
+            and (
+                colour_word(index.lexicon, tokens[i + 1])
+                or _adjective_of_next_noun(index, tokens, i + 1)
+            )
         ):
-            i += 1  # "a blue and grey item": both colours of the one item
+            # "a blue and grey item": both colours of the one item; "the white and open
+            # door": one door, white and open
+            i += 1
             continue
         if t in ("and", "or", "&"):
             flush()
@@ -532,6 +537,18 @@ def read_items(
         i += 1
     flush()
     return items
+
+
+def _adjective_of_next_noun(index: CategoryIndex, tokens: tuple[str, ...], i: int) -> bool:
+    """Whether ``tokens[i]`` is a word before a noun naming a scene category right after
+    it ("open" in "the white and open door"), not a noun or a clause of its own."""
+    return (
+        i + 1 < len(tokens)
+        and may_modify(index.lexicon, tokens[i])
+        and mention_at(index, tokens, i) is None
+        and foreign_at(index, tokens, i) is None
+        and mention_at(index, tokens, i + 1) is not None
+    )
 
 
 def _room_modified(

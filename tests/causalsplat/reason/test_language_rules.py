@@ -459,6 +459,34 @@ def test_closes_to_and_a_back_turned_to_a_thing_are_by_it(
     assert ask(_scene(KITCHEN), text) == expected
 
 
+def test_a_colour_and_another_adjective_describe_one_thing() -> None:
+    # "the white and open door": one door, white and open, the anchor of the relation;
+    # the target is neither white nor without its relation
+    ins = REASONER.parse(
+        "the chair left of the white and open door",
+        _scene([*APARTMENT, (11, "chair", (0.0, 0.0, 0.45), (0.5, 0.5, 0.9))]),
+    )
+    assert ins.target is not None and ins.target.attributes == ()
+    (relation,) = ins.target.constraints
+    assert relation.kind == "left_of" and relation.anchors[0].attributes == ("white",)
+    assert relation.anchors[0].categories == ("door",)
+
+
+@pytest.mark.parametrize(
+    "text",
+    ["the chair in the corner", "the chair on the corner of the room",
+     "the chair is on the northeast corner of the room", "the chair at the back corner"],
+)  # fmt: skip
+def test_on_a_corner_of_the_room_is_in_the_corner(text: str) -> None:
+    boxes: list[Box] = [
+        (1, "table", (3.0, 3.0, 0.4), (1.6, 1.0, 0.8)),
+        (2, "chair", (0.3, 0.3, 0.45), (0.5, 0.5, 0.9)),
+        (3, "chair", (3.0, 2.2, 0.45), (0.6, 0.6, 1.0)),  # the larger one
+        (4, "shelf", (5.7, 5.7, 1.0), (0.6, 0.6, 2.0)),
+    ]
+    assert ask(_scene(boxes), text) == (2,)
+
+
 def test_closest_before_its_noun_qualifies_that_noun() -> None:
     # "the closest chair to the monitor" is a chair (it was read as "closest to the chair")
     scene = _scene(KITCHEN)
