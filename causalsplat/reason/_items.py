@@ -567,9 +567,7 @@ def _room_modified(
         return None
     if whole is not None and whole.end > i + 1:
         return None
-    room = whole or foreign_at(index, (tokens[i],), 0)
-    if room is None:
-        room = Mention(0, 1, tokens[i], (), 0.0)
+    room = whole or foreign_at(index, (tokens[i],), 0) or Mention(0, 1, tokens[i], (), 0.0)
     return replace(room, start=i, end=i + 1), head
 
 

@@ -895,15 +895,14 @@ class Planner:
         if not ids or len(ids) == 1 or target is None or not target.categories:
             return ids
         wanted = set(target.categories)
-        cands = [e for e in self.ctx.by_id.values() if e.category in wanted]
-        if not cands or any(e.id in ids for e in cands):
+        cands = tuple(e.id for e in self.ctx.by_id.values() if e.category in wanted)
+        middle = self._mean_centroid(cands)
+        if middle is None or set(cands) & set(ids):
             return ids
-        x = math.fsum(e.centroid[0] for e in cands) / len(cands)
-        y = math.fsum(e.centroid[1] for e in cands) / len(cands)
 
         def away(i: int) -> tuple[float, int]:
             c = self.ctx.by_id[i].centroid
-            return math.hypot(c[0] - x, c[1] - y), i
+            return math.dist(c[:2], middle[:2]), i
 
         return (min(ids, key=away),)
 
