@@ -17,7 +17,7 @@ Reads the plain database files of WordNet (Debian package ``wordnet-base``: ``ap
   (the seed table below, resolved to synset indices);
 * ``colors``: single-word colour names (hyponyms of ``colour``);
 * ``exceptions``: the irregular inflections of ``noun.exc``, ``verb.exc`` and ``adj.exc``
-  (inflected form -> lemma);
+  (inflected form -> lemma), one table per part of speech (``n``, ``v``, ``a``);
 * ``words``: every single-word lemma of WordNet (nouns, verbs, adjectives and adverbs),
   sorted and space-separated: the English words the reasoner tells from misspellings;
 * ``licence``: the WordNet 3.0 licence, which must accompany every copy of the data.
@@ -45,7 +45,7 @@ from pathlib import Path
 
 WORDNET = Path("/usr/share/wordnet")
 OUT = Path(__file__).resolve().parent.parent / "causalsplat" / "reason" / "data" / "lexicon.json.gz"
-FORMAT = "causalsplat-lexicon/4"
+FORMAT = "causalsplat-lexicon/5"
 
 #: Roots of the noun subtrees that are shipped: (lemma, sense number in WordNet 3.0).
 NOUN_ROOTS: tuple[tuple[str, int], ...] = (
@@ -194,17 +194,20 @@ def read_index(root: Path, pos: str) -> dict[str, list[str]]:
     return out
 
 
-def read_exceptions(root: Path) -> dict[str, str]:
-    """Irregular forms -> lemma (the first lemma listed), nouns first, then verbs, adjectives."""
-    out: dict[str, str] = {}
-    for pos in ("noun", "verb", "adj"):
+def read_exceptions(root: Path) -> dict[str, dict[str, str]]:
+    """Irregular forms -> lemma (the first lemma listed), one table per part of speech
+    (``"n"``, ``"v"``, ``"a"``): "stood" is a form of the verb *stand*, never of the noun."""
+    out: dict[str, dict[str, str]] = {}
+    for pos, key in (("noun", "n"), ("verb", "v"), ("adj", "a")):
+        table: dict[str, str] = {}
         with (root / f"{pos}.exc").open(encoding="latin-1") as handle:
             for line in handle:
                 parts = line.split()
                 if len(parts) >= 2:
                     form = parts[0].replace("_", " ")
-                    out.setdefault(form, parts[1].replace("_", " "))
-    return dict(sorted(out.items()))
+                    table.setdefault(form, parts[1].replace("_", " "))
+        out[key] = dict(sorted(table.items()))
+    return out
 
 
 def single_words(root: Path) -> str:

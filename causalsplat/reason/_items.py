@@ -96,6 +96,13 @@ def _modifier(word: str, index: CategoryIndex) -> Modifier | None:
     return None
 
 
+def describes(word: str, index: CategoryIndex) -> bool:
+    """Whether ``word`` is an adjective of appearance, shape or size ("brown", "round",
+    "big"), the words a list of adjectives is made of ("the big, brown, round table")."""
+    mod = _modifier(word, index)
+    return mod is not None and mod.kind in ("attribute", "extreme")
+
+
 def _shade_at(tokens: tuple[str, ...], i: int) -> tuple[str, int] | None:
     """A shade word and what it qualifies, as one attribute and where it ends: "dark
     brown" (a shaded colour), "light coloured", "the light one" and "the dark couch" (a

@@ -28,7 +28,7 @@ from typing import Any
 
 from causalsplat.reason.errors import ReasonError
 
-FORMAT = "causalsplat-lexicon/4"
+FORMAT = "causalsplat-lexicon/5"
 
 _NOUN_RULES = (("ses", "s"), ("xes", "x"), ("zes", "z"), ("ches", "ch"), ("shes", "sh"),
                ("men", "man"), ("ies", "y"), ("s", ""))  # fmt: skip
@@ -74,7 +74,7 @@ class Lexicon:
         self._verbs: dict[int, _VerbRow] = {}
         self._noun_index: dict[str, str] = document["noun_index"]
         self._verb_index: dict[str, str] = document["verb_index"]
-        self._exceptions: dict[str, str] = document["exceptions"]
+        self._exceptions: dict[str, dict[str, str]] = document["exceptions"]
         self.colors: frozenset[str] = frozenset(document["colors"])
         self._seeds: dict[str, list[int]] = document["affordances"]
         self._afford_of: dict[int, tuple[str, ...]] = {}
@@ -110,7 +110,7 @@ class Lexicon:
         index = self._verb_index if pos == "v" else self._noun_index
         if pos != "a" and word in index:
             return word
-        exc = self._exceptions.get(word)
+        exc = self._exceptions[pos].get(word)
         if exc is not None and (pos == "a" or exc in index):
             return exc
         rules = {"n": _NOUN_RULES, "v": _VERB_RULES, "a": _ADJ_RULES}[pos]
@@ -141,7 +141,7 @@ class Lexicon:
             self._words = frozenset(self._words_text.split())
         words = self._words
         word = word.lower()
-        if word in words or word in self._exceptions:
+        if word in words or any(word in table for table in self._exceptions.values()):
             return True
         return any(
             base in words or (len(base) > 2 and base[-1] == base[-2] and base[:-1] in words)

@@ -11,11 +11,12 @@ touches the graph's geometry: noun phrases are resolved to category names only.
 from __future__ import annotations
 
 import itertools
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 from causalsplat.reason import _grammar as g
 from causalsplat.reason._conditions import asks_what_follows, moves_away, split_condition
-from causalsplat.reason._items import Item, Modifier, read_items
+from causalsplat.reason._items import Item, Modifier, describes, read_items
 from causalsplat.reason._mentions import NAMED, CategoryIndex, Mention, mention_at
 from causalsplat.reason._spelling import correct
 from causalsplat.reason._text import NUMBER_WORDS, tokenize
@@ -154,7 +155,7 @@ def _parse(text: str, tokens: tuple[str, ...], index: CategoryIndex) -> Instruct
     condition = split_condition(tokens)
     if condition is not None:
         return _counterfactual(text, tokens, condition, index)
-    view_tokens, main_tokens = _split_viewpoint(tokens)
+    view_tokens, main_tokens = _split_viewpoint(tokens, lambda w: describes(w, index))
     main_tokens = without_blocked_activity(main_tokens)
     view = _viewpoint(view_tokens, index)
     viewpoint, standing = view.entity, view.standing
@@ -567,7 +568,9 @@ def _set_question(tokens: tuple[str, ...], target: NounPhrase) -> bool:
     return True
 
 
-def _split_viewpoint(tokens: tuple[str, ...]) -> tuple[tuple[str, ...], tuple[str, ...]]:
+def _split_viewpoint(
+    tokens: tuple[str, ...], describes: Callable[[str], bool] = lambda w: False
+) -> tuple[tuple[str, ...], tuple[str, ...]]:
     """Cut a viewpoint clause off the instruction: ``(viewpoint tokens, the rest)``.
 
     A viewpoint clause opens a clause ("facing the front of the couch, ...", "if you are
@@ -578,8 +581,11 @@ def _split_viewpoint(tokens: tuple[str, ...]) -> tuple[tuple[str, ...], tuple[st
     where the main clause starts without one ("facing the bed choose the lamp ...",
     "facing the stove it is the cabinet ...", "facing the sofa the table on the left"):
     see :func:`_view_clause_end`. A clause that would leave nothing else is no viewpoint
-    ("look at the picture above the seat")."""
-    bounds = [-1, *(i for i, t in enumerate(tokens) if t in (",", ".", "?")), len(tokens)]
+    ("look at the picture above the seat"). A comma between two words that ``describes``
+    (adjectives: "looking towards the big, brown, round table, ...") lists them inside one
+    noun phrase and ends nothing."""
+    bounds = [-1, *(i for i, t in enumerate(tokens) if t in (",", ".", "?")
+                    and not _listing(tokens, i, describes)), len(tokens)]  # fmt: skip
     for lo, hi in itertools.pairwise(bounds):
         start, end = lo + 1, hi
         trigger = _view_trigger(tokens, start, end)
@@ -596,6 +602,24 @@ def _split_viewpoint(tokens: tuple[str, ...]) -> tuple[tuple[str, ...], tuple[st
             continue
         return tokens[first:stop], main
     return (), tokens
+
+
+def _listing(tokens: tuple[str, ...], i: int, describes: Callable[[str], bool]) -> bool:
+    """Whether the comma at ``i`` follows an adjective inside a noun phrase: an adjective
+    before it and, after it, another adjective or a word that opens no phrase or clause of
+    its own ("the big, brown, round table"; not "the one that is white, the lamp ...")."""
+    if tokens[i] != "," or not 0 < i < len(tokens) - 1 or not describes(tokens[i - 1]):
+        return False
+    after = tokens[i + 1]
+    return describes(after) or (after.isalpha() and after not in _OPENS_PHRASE)
+
+
+#: Words after a comma that start a phrase or clause of their own.
+_OPENS_PHRASE = (
+    g.DETERMINERS | g.PRONOUNS | g.VIEW_CLAUSE_OPENERS | g.VIEW_SUBORDINATORS | g.VIEW_TRIGGERS
+    | g.WH_WORDS | {"and", "or", "but", "then", "you", "i", "we", "on", "in", "at", "to", "near",
+                    "next", "by", "with", "please", "its", "is", "which", "that"}
+)  # fmt: skip
 
 
 def _view_trigger(tokens: tuple[str, ...], start: int, end: int) -> tuple[int, int] | None:

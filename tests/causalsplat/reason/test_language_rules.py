@@ -653,3 +653,21 @@ def test_the_closest_instead_never_leaves_nothing() -> None:
     text = "a curtain is hanging behind the bed. there is a dresser to the right of the curtain."
     answer = REASONER.answer(text, room)
     assert answer.entity_ids == (1,), answer.explanation
+
+
+def test_a_list_of_adjectives_stays_inside_the_viewpoint_clause(room: SceneContext) -> None:
+    # "the big, brown table": the commas list adjectives; the clause runs to the table, and
+    # the observer stands at the door ("stood", a past form of standing) looking at it
+    for verb in ("stood", "stand", "sat"):
+        ins = REASONER.parse(
+            f"if you {verb} at the door looking at the big, brown table, the chair on the left",
+            room,
+        )
+        assert ins.viewpoint is not None and ins.viewpoint.categories == ("table",)
+        assert ins.observer_at is not None and ins.observer_at.categories == ("door",)
+        assert ins.target is not None and ins.target.categories == ("chair",)
+    # a comma after a colour that ends its phrase still ends the clause
+    assert split("facing the table that is brown, the chair on the left") == (
+        "facing the table that is brown ,",
+        "the chair on the left",
+    )

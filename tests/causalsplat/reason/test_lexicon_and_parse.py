@@ -34,11 +34,20 @@ def test_lexicon_morphology_synonyms_affordances() -> None:
     assert "place" in LEX.related_words("put")
 
 
+def test_irregular_forms_are_read_in_their_own_part_of_speech() -> None:
+    # "stood", "lit", "hung" are forms of verbs; as nouns they name nothing (never a
+    # "stand", a "light" or a "hang")
+    assert [LEX.lemma(w) for w in ("stood", "lit", "hung")] == ["stood", "lit", "hung"]
+    assert [LEX.lemma(w, "v") for w in ("stood", "lit", "hung")] == ["stand", "light", "hang"]
+    assert [LEX.lemma(w) for w in ("feet", "mice")] == ["foot", "mouse"]
+    assert LEX.is_word("stood") and LEX.is_word("feet") and not LEX.is_word("chiar")
+
+
 def test_shipped_file_keeps_the_wordnet_licence() -> None:
     document = json.loads(gzip.decompress(DATA.read_bytes()))
     assert "Princeton University" in document["licence"]
     assert "WordNet 3.0 Copyright 2006 by Princeton University" in document["licence"]
-    assert document["format"] == "causalsplat-lexicon/4"
+    assert document["format"] == "causalsplat-lexicon/5"
 
 
 @pytest.mark.skipif(not Path("/usr/share/wordnet/data.noun").exists(), reason="no wordnet-base")
