@@ -47,7 +47,7 @@ CUE_PATTERNS: tuple[tuple[str, str], ...] = (
                      r"(?:middle|center|centre) of (?:the|this) " + _ROOM),
     ("place_corner", r"(?:in|at|on|into|near|towards?|by) (?:the|a) (?:(?:far|back|front|"
                      r"(?:north|south)?(?:east|west)|north|south|northern|southern|eastern|"
-                     r"western) )?corner"
+                     r"western) )?(?:(?:left|right) (?:hand )?)?corner"
                      r"(?: of (?:the|this) " + _ROOM + r"|(?! of))"),
     ("place_alone", r"(?:all )?(?:by (?:it|them)sel(?:f|ves)|on (?:its|their) own|alone|"
                     r"isolated|apart from the others)"),

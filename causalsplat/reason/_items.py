@@ -473,6 +473,9 @@ def read_items(
                 items.append(Item(i, cue.end, mod=Modifier("side", _SIDE_CUES[cue.kind])))
             elif cue.kind in _PLACE_CUES:
                 items.append(Item(i, cue.end, mod=Modifier("place", _PLACE_CUES[cue.kind])))
+                # "in the back right corner": the corner on the right
+                items += [Item(k, k + 1, mod=Modifier("side", g.SIDES[tokens[k]]))
+                          for k in range(i, cue.end) if tokens[k] in ("left", "right")]  # fmt: skip
             else:
                 items.append(Item(i, cue.end, cue=cue))
             i = cue.end

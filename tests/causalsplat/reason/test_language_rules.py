@@ -114,6 +114,17 @@ def test_places_are_not_relations_to_other_things(room: SceneContext) -> None:
     assert ins.target is not None and ins.target.place is None
 
 
+def test_a_side_of_a_corner_keeps_the_corner(room: SceneContext) -> None:
+    # "in the back right corner": in a corner, and the corner on the right
+    for text, side in (
+        ("the chair in the back right corner of the room", "right"),
+        ("the chair in the left corner", "left"),
+    ):
+        ins = REASONER.parse(text, room)
+        assert ins.target is not None and ins.target.place == "corner"
+        assert ins.target.side == side
+
+
 def test_not_in_the_corner(room: SceneContext) -> None:
     ins = REASONER.parse("the chair that is not in the corner", room)
     assert ins.target is not None and ins.target.place == "corner" and ins.target.place_negated
