@@ -146,9 +146,32 @@ def parse_instruction(text: str, index: CategoryIndex) -> Instruction:
     tokens, corrected = correct(
         tokenize(text), index.spelling_vocabulary, index.is_word, index.categories
     )
+    tokens = others_as_ones(tokens, index)
     if corrected:
         return replace(_parse(text, tokens, index), corrected=corrected)
     return _parse(text, tokens, index)
+
+
+def others_as_ones(tokens: tuple[str, ...], index: CategoryIndex) -> tuple[str, ...]:
+    """``tokens`` with the noun that "the others" and "the other two" leave out said:
+    "between the other two" is between the other two *ones* (of the target's kind), as
+    "the others" are the other ones; a noun after the number keeps its place ("the other
+    two doors")."""
+    out: list[str] = []
+    for i, t in enumerate(tokens):
+        if t == "others":
+            out += ["other", "ones"]
+            continue
+        out.append(t)
+        counted = (int(t) if t.isdigit() else NUMBER_WORDS.get(t, 0)) > 1  # not "the other one"
+        if counted and i > 0 and tokens[i - 1] == "other":
+            after = i + 1
+            if after == len(tokens) or (
+                mention_at(index, tokens, after) is None
+                and not index.lexicon.has_noun(index.lexicon.lemma(tokens[after]))
+            ):
+                out.append("ones")
+    return tuple(out)
 
 
 def _parse(text: str, tokens: tuple[str, ...], index: CategoryIndex) -> Instruction:

@@ -682,3 +682,21 @@ def test_a_list_of_adjectives_stays_inside_the_viewpoint_clause(room: SceneConte
         "facing the table that is brown ,",
         "the chair on the left",
     )
+
+
+@pytest.mark.parametrize(
+    "text",
+    ["the chair between the other two", "the chair between the two others",
+     "the chair between the others"],
+)  # fmt: skip
+def test_the_other_two_are_of_the_targets_kind(room: SceneContext, text: str) -> None:
+    # "the other two" leaves its noun out: the other two chairs
+    ins = REASONER.parse(text, room)
+    assert ins.target is not None
+    (between,) = ins.target.constraints
+    assert between.kind == "between" and between.anchors[0].text == "ones"
+    # a noun after the number, and "the other one", keep their reading
+    ins = REASONER.parse("the chair next to the other two cups", room)
+    assert ins.target is not None and ins.target.constraints[0].anchors[0].categories == ("cup",)
+    ins = REASONER.parse("the chair closer to the door than the other one", room)
+    assert "ones" not in ins.tokens
