@@ -228,7 +228,7 @@ GENERIC_TARGETS = frozenset({"one", "ones", "thing", "things", "object", "object
                              "what", "which", "where"})  # fmt: skip
 WH_WORDS = frozenset({"what", "which", "where", "who", "whatever"})
 VIEW_TRIGGERS = frozenset({"facing", "face", "looking", "look", "standing", "stand", "stood",
-                           "sitting", "sit", "sat",
+                           "sitting", "sat",
                            "viewing", "view", "seen", "entering", "enter", "walking",
                            *(_ENTERING := frozenset({"enters", "entered", "walk", "walks",
                                                      "walked", "come", "comes", "coming",
