@@ -80,6 +80,8 @@ class Lexicon:
         self._afford_of: dict[int, tuple[str, ...]] = {}
         self._words_text: str = document["words"]
         self._words: frozenset[str] | None = None
+        #: every irregular form of any part of speech (built with ``_words``)
+        self._irregular: frozenset[str] = frozenset()
         for phrase, synsets in self._seeds.items():
             for s in synsets:
                 self._afford_of[s] = (*self._afford_of.get(s, ()), phrase)
@@ -139,9 +141,10 @@ class Lexicon:
         misspelling (``"chiar"``) is not. The word list is split when first asked."""
         if self._words is None:
             self._words = frozenset(self._words_text.split())
+            self._irregular = frozenset().union(*self._exceptions.values())
         words = self._words
         word = word.lower()
-        if word in words or any(word in table for table in self._exceptions.values()):
+        if word in words or word in self._irregular:
             return True
         return any(
             base in words or (len(base) > 2 and base[-1] == base[-2] and base[:-1] in words)
