@@ -203,8 +203,8 @@ def mention_at(index: CategoryIndex, tokens: tuple[str, ...], i: int) -> Mention
     infinitive's "to": :func:`infinitive_verb_at`)."""
     if tokens[i] in GENERIC_TARGETS:
         return Mention(i, i + 1, tokens[i], (), 0.0, generic=True, plural=tokens[i].endswith("s"))
-    if tokens[i] in FUNCTION_WORDS and (i == 0 or tokens[i - 1] not in DETERMINERS):
-        return None  # "where can I": a verb; "the can": a noun
+    if tokens[i] in FUNCTION_WORDS and not _after_determiner(index.lexicon, tokens, i):
+        return None  # "where can I": a verb; "the can", "the smaller can": a noun
     for length in range(min(MAX_PHRASE, len(tokens) - i), 0, -1):
         words = tokens[i : i + length]
         if any(w in (",", ".", "?") for w in words):
@@ -219,6 +219,15 @@ def mention_at(index: CategoryIndex, tokens: tuple[str, ...], i: int) -> Mention
             return Mention(i, i + length, index.lexicon.phrase_lemma(words), cats, score,
                            plural=plural)  # fmt: skip
     return None
+
+
+def _after_determiner(lex: Lexicon, tokens: tuple[str, ...], i: int) -> bool:
+    """Whether a determiner comes before token ``i``, past size and colour words ("the
+    can", "the smaller can", "a blue can"): the word is then a noun."""
+    j = i - 1
+    while j >= 0 and (tokens[j] in EXTREMES or colour_word(lex, tokens[j])):
+        j -= 1
+    return j >= 0 and tokens[j] in DETERMINERS
 
 
 def foreign_at(index: CategoryIndex, tokens: tuple[str, ...], i: int) -> Mention | None:

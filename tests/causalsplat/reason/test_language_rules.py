@@ -700,3 +700,17 @@ def test_the_other_two_are_of_the_targets_kind(room: SceneContext, text: str) ->
     assert ins.target is not None and ins.target.constraints[0].anchors[0].categories == ("cup",)
     ins = REASONER.parse("the chair closer to the door than the other one", room)
     assert "ones" not in ins.tokens
+
+
+def test_can_after_a_determiner_and_adjectives_is_a_noun() -> None:
+    # "can" is a modal verb ("where can I sit") unless a determiner comes before it, past
+    # size and colour words: "the smaller can" is a (trash) can, the smaller one
+    room = _scene([(1, "trash can", (0.0, 0.0, 0.3), (0.4, 0.4, 0.6)),
+                   (2, "trash can", (3.0, 0.0, 0.2), (0.3, 0.3, 0.4)),
+                   (3, "door", (3.5, 0.0, 1.0), (0.9, 0.1, 2.0)),
+                   (4, "printer", (3.0, 0.8, 0.8), (0.5, 0.4, 0.3))])  # fmt: skip
+    assert ask(room, "the smaller can by the door") == (2,)
+    assert ask(room, "the small can") == (2,)
+    # after a noun it stays a verb
+    ins = REASONER.parse("the door on the right can be opened", room)
+    assert ins.target is not None and ins.target.categories == ("door",)
