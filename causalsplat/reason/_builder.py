@@ -200,19 +200,23 @@ class ProgramBuilder:
         return None
 
     def at_most_one(self, index: int) -> bool:
-        """Whether step ``index`` selects at most one entity, read from the program: a
-        candidates step known to (:attr:`ids`), an ``argmin`` / ``argmax`` of one, a
-        ``coalesce`` of such, or a step that keeps members of one."""
+        """Whether step ``index`` selects at most one entity (:meth:`at_most`)."""
+        return self.at_most(index, 1)
+
+    def at_most(self, index: int, n: int) -> bool:
+        """Whether step ``index`` selects at most ``n`` entities, read from the program: a
+        candidates step known to (:attr:`ids`), an ``argmin`` / ``argmax`` of at most
+        ``n``, a ``coalesce`` of such, or a step that keeps members of one."""
         if index in self.ids:
-            return len(self.ids[index]) <= 1
+            return len(self.ids[index]) <= n
         step = self.steps[index]
         op = Op(step["op"])
-        if op in (Op.ARGMIN, Op.ARGMAX) and step.get("k", 1) == 1:
+        if op in (Op.ARGMIN, Op.ARGMAX) and (step.get("k") or 1) <= n:
             return True
         if op is Op.COALESCE:
-            return all(self.at_most_one(i) for i in step["inputs"])
+            return all(self.at_most(i, n) for i in step["inputs"])
         if op in _KEEPS_FIRST:
-            return self.at_most_one(step["inputs"][0])
+            return self.at_most(step["inputs"][0], n)
         return False
 
     def within(self, index: int) -> tuple[int, ...] | None:

@@ -258,7 +258,10 @@ def _referring(
         assert planned is not None
         step = _one(b, planner, planned, target.attributes)
     read = None
-    if readings and target.constraints and len(planner.contradicted) == contradicted:
+    if (
+        readings and target.constraints and len(planner.contradicted) == contradicted
+        and planner.count == 1
+    ):  # fmt: skip
         read = _colour_or_relations(b, planner, target, categories, planned, (step, said))
     if read is None:
         b.notes.extend(said)
@@ -270,20 +273,22 @@ def _one(b: ProgramBuilder, planner: Planner, planned: Planned, words: tuple[str
     the two ends of a "between", else the closest to its last relation's anchor, else the
     one nearest in colour to its colour word, else the largest."""
     step = planned.step
-    if b.at_most_one(step):
+    if b.at_most(step, planner.count):
         return step
+    the = "the one" if planner.count == 1 else f"the {planner.count}"
     if planned.ends is not None:
         # "the trash can between the desk and the door": the one most squarely between
-        b.note("{n} candidates fit; took the one nearest the line between them", more=step)
-        ends = b.add(Op.ARGMIN, step, *planned.ends, metric=Metric.SEGMENT_DISTANCE)
+        b.note(f"{{n}} candidates fit; took {the} nearest the line between them", more=step)
+        ends = b.add(Op.ARGMIN, step, *planned.ends, metric=Metric.SEGMENT_DISTANCE,
+                     k=planner.k)  # fmt: skip
         return b.coalesce((ends, None), (step, None))
     if planned.anchor is not None:
         anchor = planned.anchor
         metric = planned.measure or b.distance_to(anchor)
         what = _CLOSEST_TO.get(metric, "both anchors")
-        b.note(f"{{n}} candidates fit; took the one closest to {what}", more=step)
+        b.note(f"{{n}} candidates fit; took {the} closest to {what}", more=step)
         # none measured (the anchor is the candidate itself): it stays
-        closest = b.add(Op.ARGMIN, step, anchor, metric=metric)
+        closest = b.add(Op.ARGMIN, step, anchor, metric=metric, k=planner.k)
         return b.coalesce((closest, None), (step, None))
     return _closest_in_colour_or_largest(b, planner, step, planned, words)
 
@@ -344,13 +349,15 @@ def _closest_in_colour_or_largest(
     word (by the stored colours of the phrase's candidates, nearest first), else the
     largest."""
     by_colour = planner.by_colour(step, planned, words)
-    largest = "{n} candidates fit; took the largest"
+    n = planner.count
+    largest = "{n} candidates fit; took the largest" + ("" if n == 1 else f" {n}")
     if not by_colour:
         b.note(largest, more=step)
-        return b.add(Op.ARGMAX, step, metric=Metric.VOLUME)
-    nearest = Note("{n} candidates fit; took the one nearest in colour", more=step)
+        return b.add(Op.ARGMAX, step, metric=Metric.VOLUME, k=planner.k)
+    the = "the one" if n == 1 else f"the {n}"
+    nearest = Note(f"{{n}} candidates fit; took {the} nearest in colour", more=step)
     chosen = b.coalesce(*((s, nearest) for s in by_colour), (step, Note(largest, more=step)))
-    return b.add(Op.ARGMAX, chosen, metric=Metric.VOLUME)
+    return b.add(Op.ARGMAX, chosen, metric=Metric.VOLUME, k=planner.k)
 
 
 def _finish(b: ProgramBuilder, ins: Instruction, step: int) -> int:

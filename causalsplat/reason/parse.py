@@ -14,6 +14,7 @@ import itertools
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
+from causalsplat.colors import is_color_word
 from causalsplat.reason import _grammar as g
 from causalsplat.reason._conditions import asks_what_follows, moves_away, split_condition
 from causalsplat.reason._items import Item, Modifier, describes, read_items
@@ -37,7 +38,8 @@ class NounPhrase:
     ``place_negated``: not the one there ("not the one in the corner"); ``side_negated``:
     not the one on that side ("not the door to your left");
     ``not_attributes``: attribute words it does not have ("the chair that is not black",
-    "the brown door, not the white one").
+    "the brown door, not the white one"); ``count``: how many the target phrase asks for
+    when it says a number ("the two stools closest to the window": 2), else ``None``.
     """
 
     mention: Mention | None
@@ -51,6 +53,7 @@ class NounPhrase:
     side_negated: bool = False
     constraints: tuple[Constraint, ...] = ()
     coordinated: tuple[NounPhrase, ...] = ()
+    count: int | None = None
 
     @property
     def categories(self) -> tuple[str, ...]:
@@ -266,6 +269,9 @@ def _parse(text: str, tokens: tuple[str, ...], index: CategoryIndex) -> Instruct
         kind = "set"
     else:
         kind = "refer"
+        count = _count_of(main_tokens, target, index.lexicon)
+        if count is not None:
+            target = replace(target, count=count)
     closure = kind == "set" and bool(g.CLOSURE_TRIGGERS.search(joined))
     return Instruction(text, tokens, kind, target, viewpoint=viewpoint, standing_at=standing,
                        observer_at=view.observer,
@@ -784,6 +790,52 @@ def _counted(tokens: tuple[str, ...], np: NounPhrase) -> bool:
         return False
     t = tokens[j]
     return (t.isdigit() and int(t) > 1) or NUMBER_WORDS.get(t, 0) > 1
+
+
+#: Words before "the two chairs" that make the number a group the target is picked from
+#: or an anchor ("the left *of* the two chairs", "*between* the two chairs", "there *are*
+#: two chairs"), not how many the target is.
+_GROUPING = frozenset({"of", "between", "among", "amongst", "are", "is", "with", "from"})
+
+
+#: Words between a count and its noun that rank by distance ("the two closest stools").
+_RANKING = frozenset({"closest", "nearest", "farthest", "furthest"})
+
+
+def _count_of(tokens: tuple[str, ...], np: NounPhrase, lexicon: Lexicon) -> int | None:
+    """How many the phrase asks for when a number of more than one comes before its
+    plural noun, past size and colour words, no word before the number makes it a group
+    and the sentence picks no "one" ("the two stools closest to the window", "the 3
+    tallest chairs"; not "the left of the two chairs", "of the two stools, the one by the
+    window"); else ``None``.
+
+    >>> from causalsplat.reason.lexicon import load_lexicon
+    >>> chairs = NounPhrase(Mention(3, 4, "chair", ("chair",), 1.0, plural=True))
+    >>> _count_of(("the", "two", "tallest", "chairs"), chairs, load_lexicon())
+    2
+    >>> _count_of(("of", "the", "two", "chairs"), chairs, load_lexicon()) is None
+    True
+    """
+    mention = np.mention
+    if mention is None or mention.generic or not mention.plural:
+        return None
+    if lexicon.phrase_lemma(tokens[mention.start : mention.end]) != mention.phrase:
+        return None  # a phrase of another clause (the viewpoint's)
+    if "one" in tokens:
+        return None  # "two towers are on this side, select the one nearest the window"
+    j = mention.start - 1
+    while j >= 0 and (tokens[j] in _RANKING or tokens[j] in g.EXTREMES or is_color_word(tokens[j])):
+        j -= 1
+    if j < 0:
+        return None
+    t = tokens[j]
+    n = int(t) if t.isdigit() else NUMBER_WORDS.get(t, 0)
+    if n < 2:
+        return None
+    j -= 1
+    while j >= 0 and tokens[j] in ("the", "these", "those"):
+        j -= 1
+    return None if j >= 0 and tokens[j] in _GROUPING else n
 
 
 def _word_before(tokens: tuple[str, ...], np: NounPhrase) -> str | None:

@@ -186,6 +186,9 @@ class Planner:
         #: plan the target's relations as said, with no relaxation or fallback (a reading
         #: that selects nothing when the scene does not fit it; see :meth:`plan`)
         self._strict = False
+        #: how many each choosing step of the target keeps ("the two stools closest to the
+        #: window"): the target phrase's count, 1 for anchors
+        self.count = max(1, instruction.target.count or 1) if instruction.target else 1
 
     # -- candidates ----------------------------------------------------------------------
 
@@ -601,9 +604,24 @@ class Planner:
         step = self.modifiers(step, np, base)
         return Planned(step, last.anchor, last.ends, last.measure, base)
 
+    @property
+    def k(self) -> int | None:
+        """The ``k`` of a choosing step: ``None`` (one) unless the target asks for more."""
+        return self.count if self.count > 1 else None
+
+    @contextmanager
+    def _one_each(self) -> Iterator[None]:
+        """Choosing steps keep one inside the block (an anchor's: "the two stools closest
+        to the largest table" keeps one table)."""
+        before, self.count = self.count, 1
+        try:
+            yield
+        finally:
+            self.count = before
+
     def anchor(self, np: NounPhrase) -> int | None:
         contradicted = len(self.contradicted)
-        with self._as_said(False):
+        with self._as_said(False), self._one_each():
             planned = self.plan(np, singular=False, role="anchor")
         if planned is None:
             return None
@@ -699,7 +717,7 @@ class Planner:
                 # "the chair closest to the bookshelf": the one against it, however deep
                 # the shelf; of those inside its box, the one nearer its centroid
                 metric = Metric.BOX_CENTROID_DISTANCE
-            first = b.add(op, step, a[0], metric=metric)
+            first = b.add(op, step, a[0], metric=metric, k=self.k)
             if nth <= 1:
                 return first
             upto = b.add(op, step, a[0], metric=metric, k=nth)
@@ -710,10 +728,10 @@ class Planner:
             return self._opposite(step, a[0], singular=singular, selectors=selectors)
         if kind in _FOOTPRINT:
             if singular and not selectors:
-                return b.add(Op.ARGMIN, step, a[0], metric=_FOOTPRINT[kind])
+                return b.add(Op.ARGMIN, step, a[0], metric=_FOOTPRINT[kind], k=self.k)
             kind = "near"
         if kind == "near" and singular and not selectors:
-            return b.add(Op.ARGMIN, step, a[0], metric=b.distance_to(a[0]))
+            return b.add(Op.ARGMIN, step, a[0], metric=b.distance_to(a[0]), k=self.k)
         if kind == "between":
             # "between the two chairs": one anchor set whose members are both ends (an
             # entity is never between an anchor and itself, so A x A pairs distinct ends).
@@ -945,12 +963,13 @@ class Planner:
             # "the tall lamp on the left", "the larger pillow on the far right": of those
             # on that side, the tallest (largest)
             return b.add(
-                np.extremes[0][1], self._side_half(step, np.side), metric=np.extremes[0][0]
-            )
+                np.extremes[0][1], self._side_half(step, np.side), metric=np.extremes[0][0],
+                k=self.k,
+            )  # fmt: skip
         if np.extremes and not b.at_most_one(step):
             metric, direction = np.extremes[0]
             if metric is not Metric.Z or np.side not in ("left", "right"):
-                step = b.add(direction, step, metric=metric)
+                step = b.add(direction, step, metric=metric, k=self.k)
             else:
                 # "the upper left cabinet": of those on the highest level, the leftmost
                 step = self._level(step, base, direction)
@@ -1033,6 +1052,6 @@ class Planner:
         """The ``nth`` candidate from the observer's ``side`` (:meth:`_toward`)."""
         view = self._side_view(step)
         if nth <= 1:
-            return self._toward(step, side, 1, view)
+            return self._toward(step, side, self.count, view)
         upto, before = self._toward(step, side, nth, view), self._toward(step, side, nth - 1, view)
         return self.b.add(Op.DIFFERENCE, upto, before)
