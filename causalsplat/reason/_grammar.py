@@ -199,6 +199,8 @@ ACTION_TRIGGERS = re.compile(
     # where a thing belongs: "where do dirty clothes go?", "where does this box belong?"
     r"\bwhere (?:do|does|should|would|could|can|might|will) (?:[a-z]+ ){1,4}"
     r"(?:go|belong|live)\b|"
+    # what the speaker has calls for something: "I have a runny nose", "I've got dirty dishes"
+    r"^(?:i|we) (?:have|got|have got)\b(?! to\b)|"
     r"\b(?:i|we)(?: really| just| also| still| now| badly)? (?:need|want|require|desire|"
     r"wish|hope|must|should|would like|like|am seeking|am looking for|am searching for|"
     r"am after|have to|got to|gotta)\b"

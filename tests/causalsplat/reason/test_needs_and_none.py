@@ -111,6 +111,23 @@ def test_a_state_of_a_thing_is_no_need(room: SceneContext) -> None:
     assert LEXICAL.parse("it's too dark in here", room).kind == "action"
 
 
+def test_what_the_speaker_has_calls_for_something() -> None:
+    # "I have a runny nose" is a need (what helps with it), not "anything with a nose";
+    # "I have to" stays the need it opens, and a description keeps its reading
+    doc = {"scene_id": "have", "objects": [
+        {"id": 1, "label": "tissue box", "center": [0, 0, 0.8], "size": [0.2, 0.1, 0.1]},
+        {"id": 2, "label": "couch", "center": [2, 0, 0.4], "size": [2, 0.9, 0.8]},
+        {"id": 3, "label": "sink", "center": [4, 0, 0.9], "size": [0.5, 0.4, 0.2]},
+    ]}  # fmt: skip
+    ctx = SceneContext(objects_to_scene_graph(parse_objects(doc)))
+    for text in ("I have a runny nose", "I've got a runny nose", "we have a runny nose"):
+        assert LEXICAL.parse(text, ctx).kind == "action", text
+        assert LEXICAL.answer(text, ctx).categories == ("tissue box",), text
+    assert LEXICAL.answer("I have dirty dishes", ctx).categories == ("sink",)
+    assert LEXICAL.parse("I have to wash the dishes", ctx).kind == "action"
+    assert LEXICAL.parse("the couch that I have", ctx).kind == "refer"
+
+
 @pytest.mark.parametrize(
     ("text", "contradicted"),
     [
