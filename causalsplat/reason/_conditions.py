@@ -27,6 +27,10 @@ True
 (('the', 'table'), ('what', 'is', 'left', 'hanging', '?'))
 >>> split_condition(tuple("the chair without arms".split())) is None
 True
+>>> split_condition(tuple("what would hit the floor were the shelf to snap ?".split()))
+(('the', 'shelf'), ('what', 'would', 'hit', 'the', 'floor', '?'))
+>>> split_condition(tuple("what goes down with the desk if it collapses ?".split()))
+(('the', 'desk'), ('what', 'goes', 'down', 'with', 'the', 'desk', '?'))
 
 "Without X" is a condition only in a question of what falls ("what drops without the
 shelf?"): elsewhere it describes ("the lamp without a shade", "which chair is without a
@@ -35,7 +39,7 @@ cushion?").
 
 from __future__ import annotations
 
-from causalsplat.reason._grammar import DETERMINERS
+from causalsplat.reason._grammar import DEFINITE, DETERMINERS, PRONOUNS
 from causalsplat.reason._text import NUMBER_WORDS
 
 #: Words that open a condition clause (the first token of a two-word one is the key).
@@ -167,10 +171,17 @@ def _verb(word: str) -> bool:
     )
 
 
+#: Verbs that open an inverted condition before their subject's determiner ("were the
+#: shelf to snap", "had the bed been removed", "should the table break").
+_INVERTED = frozenset({"were", "had", "should"})
+
+
 def _opener(tokens: tuple[str, ...], i: int) -> int:
     """Length of a condition opener at ``tokens[i]`` (0 when there is none)."""
     if i + 1 < len(tokens) and (tokens[i], tokens[i + 1]) in _OPENERS_2:
         return 2
+    if tokens[i] in _INVERTED and i + 1 < len(tokens) and tokens[i + 1] in DETERMINERS:
+        return 1  # the clause must still remove something (split_condition)
     return 1 if tokens[i] in SUBORDINATORS else 0
 
 
@@ -299,5 +310,19 @@ def split_condition(
         question = (*tokens[: i if width == 1 or tokens[i] != "what" else i + 1], *tokens[end:])
         question = tuple(t for k, t in enumerate(question) if t != "," or k > 0)
         kept = tuple(t for k, t in enumerate(clause) if _names_removed(clause, k))
+        if kept and all(t in PRONOUNS for t in kept):
+            # "what goes down with the desk if it collapses?": the thing the question names
+            kept = _named_in(question) or kept
         return kept, question
     return _without(tokens) or _stated(tokens)
+
+
+def _named_in(question: tuple[str, ...]) -> tuple[str, ...]:
+    """The words of the question's first definite noun phrase ("the desk" of "what goes
+    down with the desk"), up to the next punctuation; empty when it has none."""
+    start = next((k for k, t in enumerate(question) if t in DEFINITE), None)
+    if start is None:
+        return ()
+    end = next((j for j in range(start, len(question)) if question[j] in (",", ".", "?")),
+               len(question))  # fmt: skip
+    return question[start:end]

@@ -48,6 +48,14 @@ WORDINGS = [
     "the table collapses - what goes down with it?",
     # told to remove it, then asked anything: what follows the removal
     "take away the table, what is on the floor?",
+    # inverted conditions, first or last
+    "what would hit the floor were the table to snap?",
+    "were the table to give way, what would fall?",
+    "had the table been removed, what would have fallen?",
+    "should the table break, what falls?",
+    # the condition says "it" of the thing the question names
+    "what goes down with the table if it collapses?",
+    "what falls off the table if it breaks?",
 ]
 
 
@@ -109,7 +117,9 @@ def test_everything_stacked_on_it_in_the_condition_last_order(room: SceneContext
      "take the cup out of the box",
      # a description that says something was pulled out, then a question of which
      "the box pulled out from the table. which one is it?",
-     "the table is pulled out, what is on it?"],
+     "the table is pulled out, what is on it?",
+     # "were" and "had" before a noun phrase that nothing removes
+     "what were the things on the table?", "which cup had the box on it?"],
 )  # fmt: skip
 def test_conditions_that_remove_nothing_are_not_counterfactuals(
     room: SceneContext, text: str
