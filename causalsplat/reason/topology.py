@@ -56,6 +56,7 @@ from causalsplat.colors import (
     names_of,
     rgb_to_hex,
     word_distance,
+    word_fits,
 )
 from causalsplat.reason._builder import SCENE, ProgramBuilder
 from causalsplat.reason.parse import Constraint, Instruction, NounPhrase
@@ -105,6 +106,16 @@ COLOUR_SCENE_FLOOR = 30.0
 #: Shades and negated colours together: Nr3D / ScanRefer *train* samples 67.4 -> 67.6 % /
 #: 63.0 -> 63.1 % (few descriptions use them; none answered worse on Nr3D, one on ScanRefer).
 LIGHTNESS_MARGIN = 10.0
+#: Kinds of request that ask about every candidate that fits, not one.
+_EVERY = frozenset({"set", "count", "exists"})
+
+
+def _is_colour(word: str) -> bool:
+    """Whether an attribute word names a colour (not a shade alone)."""
+    phrase = colour_phrase(word)
+    return phrase is not None and phrase[0] is not None
+
+
 #: How many colours, nearest first, :meth:`Planner.by_colour` tries before the largest
 #: candidate is taken (one ``coalesce`` step).
 COLOUR_TIERS = 7
@@ -189,6 +200,10 @@ class Planner:
         #: how many each choosing step of the target keeps ("the two stools closest to the
         #: window"): the target phrase's count, 1 for anchors
         self.count = max(1, instruction.target.count or 1) if instruction.target else 1
+        #: a colour word keeps each candidate it may name (:func:`colours.word_fits`), not
+        #: the nearest: the target of a question of every one, how many or whether any
+        #: ("which stools are green?"), while its candidates are planned
+        self._each_colour = False
 
     # -- candidates ----------------------------------------------------------------------
 
@@ -389,7 +404,13 @@ class Planner:
             b.note(f"the scene contradicts {word!r}: nothing here is {word} (closest: "
                    f"{closest_text}){why}")  # fmt: skip
             return self._none_of(step)
-        keep = self._nearest(known, name, shade)
+        if self._each_colour:
+            keep = [i for i in known if word_fits(name, known[i], shade)]
+            if not keep:
+                b.note(f"{word}: none of the {len(ids)} candidates is {word}")
+                return self._none_of(step)
+        else:
+            keep = self._nearest(known, name, shade)
         if len(keep) == len(ids):
             return step
         b.note(f"{word}: {len(keep)} of {len(ids)} candidates by colour")
@@ -575,7 +596,12 @@ class Planner:
         role: str,
         categories: tuple[str, ...] | None,
     ) -> Planned | None:
-        step = self.candidates(np, role=role, categories=categories)
+        every = role == "target" and not singular and self.instruction.kind in _EVERY
+        self._each_colour = every and sum(_is_colour(w) for w in np.attributes) == 1
+        try:
+            step = self.candidates(np, role=role, categories=categories)
+        finally:
+            self._each_colour = False
         if step is None:
             return None
         for c in np.constraints:

@@ -454,3 +454,20 @@ def test_a_kind_noun_before_a_purpose_leaves_the_choice_to_the_purpose(
     room = _room("washing machine", "clothes dryer", "towel", "laundry basket")
     answer = reasoner.answer(text, room)
     assert answer.categories == (expected,), answer.explanation
+
+
+def test_a_colour_in_a_question_of_every_one_keeps_those_it_names() -> None:
+    # four brown stools and a white one: "the green stool" takes the one nearest to green
+    # (a scan's colours are dim), but "which stools are green?", "how many green stools"
+    # and "is there a green stool?" ask of each one whether it is green
+    doc = _coloured(("stool", 0, (126, 90, 50)), ("stool", 1, (107, 72, 39)),
+                    ("stool", 2, (92, 62, 34)), ("stool", 3, (88, 57, 30)),
+                    ("stool", 4, (225, 222, 215)))  # fmt: skip
+    ctx = SceneContext(objects_to_scene_graph(parse_objects(doc)))
+    assert LEXICAL.answer("how many green stools are there?", ctx).value == 0
+    assert LEXICAL.answer("is there a green stool?", ctx).value is False
+    assert LEXICAL.answer("which stools are green?", ctx).entity_ids == ()
+    assert LEXICAL.answer("how many brown stools are there?", ctx).value == 4
+    assert LEXICAL.answer("is there a white stool?", ctx).value is True
+    assert LEXICAL.answer("all the white stools", ctx).entity_ids == (5,)
+    assert len(LEXICAL.answer("the green stool", ctx).entity_ids) == 1
