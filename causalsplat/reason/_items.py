@@ -383,6 +383,13 @@ def read_items(
             items.append(Item(i, i + 1, negation=True))
             i += 1
             continue
+        excluding = _exclusion_at(tokens, i)
+        if excluding:
+            # "every stool but the one by the window", "the chairs other than the ones at
+            # the desk": what follows is left out, as after "except"
+            items.append(Item(i, i + excluding, negation=True))
+            i += excluding
+            continue
         if (
             t in ("and", "or", "&")
             and pending
@@ -547,6 +554,23 @@ def read_items(
         i += 1
     flush()
     return items
+
+
+def _exclusion_at(tokens: tuple[str, ...], i: int) -> int:
+    """Length of an exclusion at ``tokens[i]`` that reads as "except": "but" before "the
+    one(s)" or "those", or "other than" (0 when there is none).
+
+    >>> _exclusion_at(("every", "stool", "but", "the", "one", "by", "the", "door"), 2)
+    1
+    >>> _exclusion_at(("it", "is", "brown", "but", "the", "seat", "is", "red"), 3)
+    0
+    """
+    after = tokens[i + 1 : i + 3]
+    if tokens[i] == "but" and (
+        after[:1] == ("those",) or after in (("the", "one"), ("the", "ones"))
+    ):
+        return 1
+    return 2 if tokens[i] == "other" and after[:1] == ("than",) else 0
 
 
 def _adjective_of_next_noun(index: CategoryIndex, tokens: tuple[str, ...], i: int) -> bool:

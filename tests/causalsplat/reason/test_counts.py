@@ -1,6 +1,6 @@
 """A number before the target's noun says how many are asked for ("the two stools closest
 to the window"); a number that makes a group to pick from, or a sentence that picks one,
-keeps one."""
+keeps one. "But the one ..." and "other than" exclude as "except" does."""
 
 from __future__ import annotations
 
@@ -86,3 +86,23 @@ def test_every_executor_keeps_the_count(room: SceneContext, executor: str) -> No
     answer = REASONER.answer("the two stools closest to the window", room)
     result = make_executor(room.graph, "counts", executor=executor).run(answer.program)
     assert sorted(result.entity_ids) == [3, 4]
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        "every stool but the one nearest the window",
+        "all the stools except the one closest to the window",
+        "all stools other than the one closest to the window",
+    ],
+)
+def test_but_and_other_than_exclude_as_except_does(room: SceneContext, text: str) -> None:
+    # "but the one ..." and "other than" leave out what follows; before, "but" was read as
+    # nothing and the answer was the stool the sentence excludes
+    assert ask(room, text) == (1, 2, 3)
+
+
+def test_but_between_two_clauses_excludes_nothing(room: SceneContext) -> None:
+    ins = REASONER.parse("the stool is brown but the seat is red", room)
+    assert ins.target is not None
+    assert not any(c.negated for c in ins.target.constraints)
