@@ -653,6 +653,8 @@ _OPENS_PHRASE = (
 
 def _view_trigger(tokens: tuple[str, ...], start: int, end: int) -> tuple[int, int] | None:
     """(where the viewpoint clause begins, where its trigger is) in ``tokens[start:end]``."""
+    if start == 0 < end < len(tokens) and tokens[0] == "from" and tokens[1] in g.DETERMINERS:
+        return 0, 0  # "from the doorway, the nightstand on the right": standing there
     for i in range(start, end):
         t = tokens[i]
         if t not in g.VIEW_TRIGGERS:
@@ -759,7 +761,7 @@ def _viewpoint(tokens: tuple[str, ...], index: CategoryIndex) -> _View:
         observer = _observer(tokens, named, looking, after[:1])
         named = after[:1] or named
     standing = (
-        any(t in g.STANDING_AT for t in tokens)
+        (any(t in g.STANDING_AT for t in tokens) or tokens[0] == "from")
         and not any(t in g.LOOKING for t in tokens)
         and not any(t in g.FACING_PLACES for t in tokens)
     )

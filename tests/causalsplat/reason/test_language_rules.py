@@ -46,6 +46,9 @@ def split(text: str) -> tuple[str, str]:
         # one sentence, then another
         ("face the sink. the towel you want is on the right", "face the sink .",
          "the towel you want is on the right"),
+        # "from X," opening the sentence: standing at X
+        ("from the doorway, the nightstand on the right", "from the doorway ,",
+         "the nightstand on the right"),
     ],
 )  # fmt: skip
 def test_viewpoint_clauses(text: str, view: str, main: str) -> None:
@@ -58,6 +61,7 @@ def test_viewpoint_clauses(text: str, view: str, main: str) -> None:
         "the lamp standing next to the bed, near the window",  # a participle, not the observer
         "you are looking for the small stool",  # searching, not a viewpoint
         "look at the picture right above the seat",  # nothing left for a main clause
+        "the second from the left, by the door",  # "from" inside the main clause
     ],
 )
 def test_no_viewpoint_clause(text: str) -> None:
@@ -714,3 +718,8 @@ def test_can_after_a_determiner_and_adjectives_is_a_noun() -> None:
     # after a noun it stays a verb
     ins = REASONER.parse("the door on the right can be opened", room)
     assert ins.target is not None and ins.target.categories == ("door",)
+
+
+def test_from_a_place_at_the_start_stands_there(room: SceneContext) -> None:
+    ins = REASONER.parse("from the door, the chair on the left", room)
+    assert ins.viewpoint is not None and ins.standing_at
