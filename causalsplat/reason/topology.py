@@ -62,7 +62,7 @@ from causalsplat.reason._builder import SCENE, ProgramBuilder
 from causalsplat.reason.parse import Constraint, Instruction, NounPhrase
 from graph_store import Entity, RelationType
 from queries import Metric, Op
-from queries.model import MIN_VIEW_DISTANCE
+from queries.model import MAX_K, MIN_VIEW_DISTANCE
 from queries.semantics import attribute_filter, normalise_text
 
 #: Candidates whose colour is within this (weighted Delta E) of the one nearest to a colour
@@ -199,7 +199,8 @@ class Planner:
         self._strict = False
         #: how many each choosing step of the target keeps ("the two stools closest to the
         #: window"): the target phrase's count, 1 for anchors
-        self.count = max(1, instruction.target.count or 1) if instruction.target else 1
+        count = instruction.target.count if instruction.target is not None else None
+        self.count = min(max(1, count or 1), MAX_K)
         #: a colour word keeps each candidate it may name (:func:`colours.word_fits`), not
         #: the nearest: the target of a question of every one, how many or whether any
         #: ("which stools are green?"), while its candidates are planned

@@ -106,3 +106,12 @@ def test_but_between_two_clauses_excludes_nothing(room: SceneContext) -> None:
     ins = REASONER.parse("the stool is brown but the seat is red", room)
     assert ins.target is not None
     assert not any(c.negated for c in ins.target.constraints)
+
+
+@pytest.mark.parametrize("text", ["the 1000000000000000000000 stools closest to the window",
+                                  "the 99999999999 tallest stools"])  # fmt: skip
+def test_a_count_beyond_the_language_s_bound_takes_every_candidate(
+    room: SceneContext, text: str
+) -> None:
+    # a program's k is at most MAX_K; a larger count is every candidate, not an error
+    assert ask(room, text) == (1, 2, 3, 4)
