@@ -317,6 +317,72 @@ def split_condition(
     return _without(tokens) or _stated(tokens)
 
 
+#: Verbs that move a thing without taking it away ("if I lift the tray", "once we push the
+#: cart"): what rests on it goes along.
+_CARRY = frozenset({"move", "lift", "pick", "push", "carry", "slide", "shift", "raise",
+                    "tilt", "drag", "roll", "wheel", "rotate", "turn", "relocate",
+                    "transport"})  # fmt: skip
+#: Verbs of a question of what goes along with a moved thing ("what moves with it?", "what
+#: comes along?", "what would go with it?").
+_ALONG = frozenset({"move", "moves", "moved", "moving", "come", "comes", "came", "coming",
+                    "go", "goes", "went", "going", "travel", "travels", "ride", "rides",
+                    "follow", "follows", "shift", "shifts", "slide", "slides"})  # fmt: skip
+
+
+def asks_what_goes_along(question: tuple[str, ...]) -> bool:
+    """Whether a question asks what goes along with something moved.
+
+    >>> asks_what_goes_along(tuple("what moves with it ?".split()))
+    True
+    >>> asks_what_goes_along(tuple("what comes along ?".split()))
+    True
+    >>> asks_what_goes_along(tuple("what is near it ?".split()))
+    False
+    """
+    for k, t in enumerate(question):
+        if t in _ALONG and any(w in ("with", "along") for w in question[k + 1 : k + 5]):
+            return True
+    return False
+
+
+def split_carried(
+    tokens: tuple[str, ...],
+) -> tuple[tuple[str, ...], tuple[str, ...]] | None:
+    """``(what the condition moves, the question)`` when ``tokens`` hold a condition clause
+    that moves something without removing it and a question of what goes along with it,
+    in either order ("if I lift the tray, what moves with it?", "what comes along if we
+    push the cart?"), else ``None``. An "it" in the condition is the thing the question
+    names ("what moves with the tray if I lift it?").
+
+    >>> split_carried(tuple("if i lift the tray , what moves with it ?".split()))
+    (('the', 'tray'), ('what', 'moves', 'with', 'it', '?'))
+    >>> split_carried(tuple("what moves with the tray if i lift it ?".split()))
+    (('the', 'tray'), ('what', 'moves', 'with', 'the', 'tray', '?'))
+    >>> split_carried(tuple("if i lift the tray , what is under it ?".split())) is None
+    True
+    """
+    n = len(tokens)
+    for i in range(n):
+        width = _opener(tokens, i)
+        if not width:
+            continue
+        start = i + width
+        end = next((j for j in range(start, n) if tokens[j] in (",", ".", "?")), n)
+        clause = tokens[start:end]
+        if not any(lemma(t) in _CARRY for t in clause) or removes(clause):
+            continue
+        question = (*tokens[:i], *tokens[end:])
+        question = tuple(t for k, t in enumerate(question) if t != "," or k > 0)
+        if not asks_what_goes_along(question):
+            return None
+        kept = tuple(t for t in clause if t not in AGENTS and t not in _AUXILIARIES
+                     and lemma(t) not in _CARRY and t not in ("up", "over", "around"))  # fmt: skip
+        if not kept or all(t in PRONOUNS for t in kept):
+            kept = _named_in(question) or kept
+        return (kept, question) if kept else None
+    return None
+
+
 def _named_in(question: tuple[str, ...]) -> tuple[str, ...]:
     """The words of the question's first definite noun phrase ("the desk" of "what goes
     down with the desk"), up to the next punctuation; empty when it has none."""

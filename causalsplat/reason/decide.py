@@ -159,7 +159,8 @@ def _counterfactual(b: ProgramBuilder, planner: Planner, grounded: Grounded) -> 
         b.note("nothing it says is removed is in the scene; nothing falls")
         return b.add(Op.FALL_IF_REMOVED, _nothing(b))
     what = b.union(removed)
-    b.note(f"removed: {', '.join(np.text for np in ins.removed)}")
+    said = ", ".join(np.text for np in ins.removed)
+    b.note(f"moved: {said}; what rests on it goes along" if ins.moved else f"removed: {said}")
     return b.add(Op.SUPPORT_CLOSURE if ins.closure else Op.FALL_IF_REMOVED, what)
 
 

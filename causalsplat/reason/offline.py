@@ -234,7 +234,8 @@ def _describe(ins: Instruction) -> str:
 
 def _reading(ins: Instruction) -> str:
     if ins.kind == "counterfactual":
-        return f"counterfactual: remove {', '.join(np.text for np in ins.removed)}"
+        verb = "move" if ins.moved else "remove"
+        return f"counterfactual: {verb} {', '.join(np.text for np in ins.removed)}"
     if ins.kind == "action":
         return f"an action: {' '.join(ins.action)}"
     target = ins.target

@@ -16,7 +16,12 @@ from dataclasses import dataclass, field, replace
 
 from causalsplat.colors import is_color_word
 from causalsplat.reason import _grammar as g
-from causalsplat.reason._conditions import asks_what_follows, moves_away, split_condition
+from causalsplat.reason._conditions import (
+    asks_what_follows,
+    moves_away,
+    split_carried,
+    split_condition,
+)
 from causalsplat.reason._items import Item, Modifier, describes, read_items
 from causalsplat.reason._mentions import NAMED, CategoryIndex, Mention, mention_at
 from causalsplat.reason._spelling import correct
@@ -107,6 +112,8 @@ class Instruction:
             ("standing at the door looking at the windows": the door), or ``None`` (the
             scene centre).
         closure: a counterfactual or set question over everything stacked, transitively.
+        moved: a counterfactual that moves ``removed`` without taking it away ("if I lift
+            the tray, what moves with it?"): what rests on it, transitively, goes along.
         purpose_start: index in ``main_tokens`` where the purpose clause of a need begins
             ("where can I | heat up soup"), or ``None``.
         main_tokens: the tokens without the viewpoint clause (set for needs).
@@ -126,6 +133,7 @@ class Instruction:
     standing_at: bool = False
     observer_at: NounPhrase | None = None
     closure: bool = False
+    moved: bool = False
     notes: tuple[str, ...] = field(default=())
     purpose_start: int | None = None
     main_tokens: tuple[str, ...] = ()
@@ -181,6 +189,12 @@ def _parse(text: str, tokens: tuple[str, ...], index: CategoryIndex) -> Instruct
     condition = split_condition(tokens)
     if condition is not None:
         return _counterfactual(text, tokens, condition, index)
+    carried = split_carried(tokens)
+    if carried is not None:
+        # "if I lift the tray, what moves with it?": everything resting on it, transitively
+        moved = _Reader(read_items(carried[0], index), None, carried[0]).read()
+        return Instruction(text, tokens, "counterfactual", None, removed=_removed(moved),
+                           closure=True, moved=True)  # fmt: skip
     view_tokens, main_tokens = _split_viewpoint(tokens, lambda w: describes(w, index))
     main_tokens = without_blocked_activity(main_tokens)
     view = _viewpoint(view_tokens, index)

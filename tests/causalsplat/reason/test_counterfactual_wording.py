@@ -206,3 +206,27 @@ def test_a_noun_that_is_also_a_verb_of_removal_is_no_removal() -> None:
     assert split is not None and split[0] == ("the", "trash", "can")
     split = split_condition(tokenize("if the table can be removed, what falls?"))
     assert split is not None and "table" in split[0]
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [("if I move the table, what moves with it?", {2, 3, 4}),
+     ("what comes along if we push the table?", {2, 3, 4}),
+     ("what moves with the box if I lift it?", {4}),
+     ("once someone carries the box, what goes with it?", {4})],
+)  # fmt: skip
+def test_what_goes_along_with_a_moved_thing_rests_on_it(
+    room: SceneContext, text: str, expected: set[int]
+) -> None:
+    # moving a thing takes along what rests on it, transitively (support_closure); it
+    # is not removed, so nothing falls
+    answer = REASONER.answer(text, room)
+    assert answer.program.query_type.value == "counterfactual"
+    assert set(answer.entity_ids) == expected, answer.explanation
+    assert "support_closure" in [s.op.value for s in answer.program.steps]
+    assert "moved:" in answer.explanation
+
+
+def test_moving_without_asking_what_goes_along_is_no_counterfactual(room: SceneContext) -> None:
+    for text in ("if I lift the box, what is under it?", "the box I can move"):
+        assert parse_instruction(text, REASONER.index(room)).kind != "counterfactual", text
