@@ -134,7 +134,7 @@ WITH_TAIL: dict[str, str] = {
 #: Words after a "with NP" tail cue that point back at the target ("on it", "on top").
 BACK_REFERENCES = frozenset({"it", "its", "them", "their", "top", "itself", "this", "that"})
 
-NEGATIONS = frozenset({"not", "no", "never", "except", "without"})
+NEGATIONS = frozenset({"not", "no", "never", "except", "without", "neither", "nor"})
 PRONOUNS = frozenset({"it", "them", "this", "that", "these", "those", "its", "itself", "they"})
 #: Possessive determiners ("my hands", "their cups").
 POSSESSIVES = frozenset({"my", "your", "our", "his", "her", "their", "its"})

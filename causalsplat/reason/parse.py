@@ -1051,7 +1051,8 @@ class _Reader:
                         self._add(Constraint(kind, constraint.anchors, negated=negated,
                                              span=span), nested=False)  # fmt: skip
                 shared.clear()
-                also = self._second_anchor(k, constraint)
+                denied = negated or (constraint is not None and constraint.negated)
+                also = self._second_anchor(k, constraint, denied)
                 if constraint is not None and not constraint.anchors:
                     # a cue left without its anchor asks about the subject only where
                     # the clause ends on it ("what is the cup on?"), never before a place
@@ -1182,10 +1183,13 @@ class _Reader:
             self.free = np
         return False
 
-    def _second_anchor(self, k: int, constraint: Constraint | None) -> NounPhrase | None:
+    def _second_anchor(
+        self, k: int, constraint: Constraint | None, denied: bool = False
+    ) -> NounPhrase | None:
         """The phrase joined by "and" to the anchor of the relation just read (items up
         to ``k``), when the clause ends after it: "next to a toilet and a trash can." (not
-        "next to the table and the lamp is on it", nor the two of "between")."""
+        "next to the table and the lamp is on it", nor the two of "between"); also by "or"
+        when the relation is ``denied`` ("not by the toilet or the desk": by neither)."""
         items, tokens = self.items, self.tokens
         if (
             constraint is None
@@ -1193,7 +1197,7 @@ class _Reader:
             or constraint.kind in ("between", "with")
             or k + 1 >= len(items)
             or not items[k].conjunction
-            or tokens[items[k].start] != "and"
+            or tokens[items[k].start] not in (("and", "or") if denied else ("and",))
         ):
             return None
         np = items[k + 1].np

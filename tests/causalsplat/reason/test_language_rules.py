@@ -723,3 +723,21 @@ def test_can_after_a_determiner_and_adjectives_is_a_noun() -> None:
 def test_from_a_place_at_the_start_stands_there(room: SceneContext) -> None:
     ins = REASONER.parse("from the door, the chair on the left", room)
     assert ins.viewpoint is not None and ins.standing_at
+
+
+def test_neither_nor_negates_both_relations() -> None:
+    # three trash cans: by the toilet, by the desk, and one by neither
+    room = _scene([(1, "toilet", (0.0, 0.0, 0.4), (0.5, 0.7, 0.8)),
+                   (2, "desk", (5.0, 0.0, 0.4), (1.2, 0.6, 0.8)),
+                   (3, "trash can", (0.6, 0.0, 0.2), (0.3, 0.3, 0.4)),
+                   (4, "trash can", (5.9, 0.0, 0.2), (0.3, 0.3, 0.4)),
+                   (5, "trash can", (2.5, 3.0, 0.2), (0.3, 0.3, 0.4))])  # fmt: skip
+    text = "the trash can that is neither by the toilet nor by the desk"
+    ins = REASONER.parse(text, room)
+    assert ins.target is not None
+    assert [c.negated for c in ins.target.constraints] == [True, True]
+    assert ask(room, text) == (5,)
+    # "not by A or B" is by neither; "by A or B" keeps its one relation
+    assert ask(room, "the trash can that is not by the toilet or the desk") == (5,)
+    ins = REASONER.parse("the trash can next to the toilet or the desk", room)
+    assert ins.target is not None and len(ins.target.constraints) == 1
