@@ -1230,9 +1230,14 @@ class _Reader:
         after = items[k + 1].np if k + 1 < len(items) else None
         # "the chair is the closest one to the door": "one" is the chair named again
         again = getattr(getattr(after, "mention", None), "phrase", None) in ("one", "ones")
+        # "what is the closest stool to the window?": the wh-word asks for that stool
+        asked = (
+            self.target is not None and self.target.is_any and self.subject is None
+            and not self.constraints and not _modified(self.target)
+        )  # fmt: skip
         return (
             cue.kind in ("closest", "farthest")
-            and (self.target is None or again)
+            and (self.target is None or again or asked)
             and bool(self.tokens)
             and self.tokens[cue.end - 1] not in ("to", "from", "as", "where", "what")
             and k + 1 < len(items)

@@ -1,6 +1,7 @@
 """A number before the target's noun says how many are asked for ("the two stools closest
 to the window"); a number that makes a group to pick from, or a sentence that picks one,
-keeps one. "But the one ..." and "other than" exclude as "except" does."""
+keeps one. "But the one ..." and "other than" exclude as "except" does; "what is the closest
+stool to the window?" asks for a stool."""
 
 from __future__ import annotations
 
@@ -115,3 +116,16 @@ def test_a_count_beyond_the_language_s_bound_takes_every_candidate(
 ) -> None:
     # a program's k is at most MAX_K; a larger count is every candidate, not an error
     assert ask(room, text) == (1, 2, 3, 4)
+
+
+@pytest.mark.parametrize(
+    "text",
+    ["what is the closest stool to the window?", "which is the nearest stool to the window?",
+     "the closest stool to the window"],
+)  # fmt: skip
+def test_a_wh_question_asks_for_the_closest_thing_it_names(room: SceneContext, text: str) -> None:
+    # "what is the closest X to Y" asks for an X; before, the wh-question made Y the target
+    # and X its anchor (the window nearest a stool)
+    ins = REASONER.parse(text, room)
+    assert ins.target is not None and ins.target.categories == ("stool",)
+    assert ask(room, text) == (4,)
