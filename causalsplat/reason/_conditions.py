@@ -39,6 +39,8 @@ cushion?").
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+
 from causalsplat.reason._grammar import DEFINITE, DETERMINERS, PRONOUNS
 from causalsplat.reason._text import NUMBER_WORDS
 
@@ -293,6 +295,22 @@ def split_condition(
     The condition runs from its opener to the next comma or sentence end; the question is
     everything else. Agents ("someone", "we"), auxiliaries and the words of removal are
     left out of the condition: what is left names what is removed."""
+    for i, width, start, end in _clauses(tokens):
+        clause = tokens[start:end]
+        if not clause or not removes(clause):
+            continue
+        end = start + _question_start(clause)
+        clause = tokens[start:end]
+        question = _question(tokens, i, width, end)
+        kept = tuple(t for k, t in enumerate(clause) if _names_removed(clause, k))
+        return _or_named(kept, question), question
+    return _without(tokens) or _stated(tokens)
+
+
+def _clauses(tokens: tuple[str, ...]) -> Iterator[tuple[int, int, int, int]]:
+    """Each condition clause of ``tokens``: ``(i, width, start, end)``, its opener at ``i``
+    (``width`` tokens) and its words ``tokens[start:end]``, up to the next comma or
+    sentence end."""
     n = len(tokens)
     for i in range(n):
         width = _opener(tokens, i)
@@ -301,20 +319,22 @@ def split_condition(
         if tokens[i] == "should" and i > 0 and tokens[i - 1] not in (",", ".", "?"):
             continue  # "what should fall": not an inverted condition
         start = i + width
-        end = next((j for j in range(start, n) if tokens[j] in (",", ".", "?")), n)
-        clause = tokens[start:end]
-        if not clause or not removes(clause):
-            continue
-        end = start + _question_start(clause)
-        clause = tokens[start:end]
-        question = (*tokens[: i if width == 1 or tokens[i] != "what" else i + 1], *tokens[end:])
-        question = tuple(t for k, t in enumerate(question) if t != "," or k > 0)
-        kept = tuple(t for k, t in enumerate(clause) if _names_removed(clause, k))
-        if kept and all(t in PRONOUNS for t in kept):
-            # "what goes down with the desk if it collapses?": the thing the question names
-            kept = _named_in(question) or kept
-        return kept, question
-    return _without(tokens) or _stated(tokens)
+        yield i, width, start, next((j for j in range(start, n) if tokens[j] in (",", ".", "?")), n)
+
+
+def _question(tokens: tuple[str, ...], i: int, width: int, end: int) -> tuple[str, ...]:
+    """The tokens outside the condition clause opened at ``i`` and ending at ``end`` (the
+    "what" of "what if" kept), without a comma left at their start."""
+    question = (*tokens[: i if width == 1 or tokens[i] != "what" else i + 1], *tokens[end:])
+    return tuple(t for k, t in enumerate(question) if t != "," or k > 0)
+
+
+def _or_named(kept: tuple[str, ...], question: tuple[str, ...]) -> tuple[str, ...]:
+    """What a condition names, or, when it says only "it", the thing the question names
+    ("what goes down with the desk if it collapses?": the desk)."""
+    if kept and all(t in PRONOUNS for t in kept):
+        return _named_in(question) or kept
+    return kept
 
 
 #: Verbs that move a thing without taking it away ("if I lift the tray", "once we push the
@@ -361,24 +381,16 @@ def split_carried(
     >>> split_carried(tuple("if i lift the tray , what is under it ?".split())) is None
     True
     """
-    n = len(tokens)
-    for i in range(n):
-        width = _opener(tokens, i)
-        if not width:
-            continue
-        start = i + width
-        end = next((j for j in range(start, n) if tokens[j] in (",", ".", "?")), n)
+    for i, width, start, end in _clauses(tokens):
         clause = tokens[start:end]
         if not any(lemma(t) in _CARRY for t in clause) or removes(clause):
             continue
-        question = (*tokens[:i], *tokens[end:])
-        question = tuple(t for k, t in enumerate(question) if t != "," or k > 0)
+        question = _question(tokens, i, width, end)
         if not asks_what_goes_along(question):
             return None
         kept = tuple(t for t in clause if t not in AGENTS and t not in _AUXILIARIES
                      and lemma(t) not in _CARRY and t not in ("up", "over", "around"))  # fmt: skip
-        if not kept or all(t in PRONOUNS for t in kept):
-            kept = _named_in(question) or kept
+        kept = _or_named(kept, question) if kept else _named_in(question)
         return (kept, question) if kept else None
     return None
 

@@ -276,7 +276,7 @@ def _one(b: ProgramBuilder, planner: Planner, planned: Planned, words: tuple[str
     step = planned.step
     if b.at_most(step, planner.count):
         return step
-    the = "the one" if planner.count == 1 else f"the {planner.count}"
+    the = _the(planner.count)
     if planned.ends is not None:
         # "the trash can between the desk and the door": the one most squarely between
         b.note(f"{{n}} candidates fit; took {the} nearest the line between them", more=step)
@@ -355,10 +355,14 @@ def _closest_in_colour_or_largest(
     if not by_colour:
         b.note(largest, more=step)
         return b.add(Op.ARGMAX, step, metric=Metric.VOLUME, k=planner.k)
-    the = "the one" if n == 1 else f"the {n}"
-    nearest = Note(f"{{n}} candidates fit; took {the} nearest in colour", more=step)
+    nearest = Note(f"{{n}} candidates fit; took {_the(n)} nearest in colour", more=step)
     chosen = b.coalesce(*((s, nearest) for s in by_colour), (step, Note(largest, more=step)))
     return b.add(Op.ARGMAX, chosen, metric=Metric.VOLUME, k=planner.k)
+
+
+def _the(n: int) -> str:
+    """How an explanation says the ``n`` chosen: "the one", "the 2"."""
+    return "the one" if n == 1 else f"the {n}"
 
 
 def _finish(b: ProgramBuilder, ins: Instruction, step: int) -> int:

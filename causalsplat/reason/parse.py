@@ -804,8 +804,12 @@ def _counted(tokens: tuple[str, ...], np: NounPhrase) -> bool:
         j -= 1
     if j < 0:
         return False
-    t = tokens[j]
-    return (t.isdigit() and int(t) > 1) or NUMBER_WORDS.get(t, 0) > 1
+    return _number(tokens[j]) > 1
+
+
+def _number(word: str) -> int:
+    """The number a word says ("two", "3"); 0 for any other word."""
+    return int(word) if word.isdigit() else NUMBER_WORDS.get(word, 0)
 
 
 #: Words before "the two chairs" that make the number a group the target is picked from
@@ -844,8 +848,7 @@ def _count_of(tokens: tuple[str, ...], np: NounPhrase, lexicon: Lexicon) -> int 
         j -= 1
     if j < 0:
         return None
-    t = tokens[j]
-    n = int(t) if t.isdigit() else NUMBER_WORDS.get(t, 0)
+    n = _number(tokens[j])
     if n < 2:
         return None
     j -= 1

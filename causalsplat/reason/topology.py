@@ -241,7 +241,7 @@ class Planner:
         chairs", "a blue-grey blanket"), one the scene contradicts is left out when another
         fits (the phrase names a mix, or colours of different members); when all are
         contradicted, all are kept (and nothing fits)."""
-        colours = [w for w in words if (p := colour_phrase(w)) is not None and p[0] is not None]
+        colours = [w for w in words if _is_colour(w)]
         if len(colours) < 2:
             return words
         known = self._colours(self.ids[step])
