@@ -33,6 +33,13 @@ _COUNT = r"(?:two|three|four|five|six|both|\d+)"
 _OF_COUNT = r"(?: hand)?(?: one)? of(?= (?:the |these |those )?" + _COUNT + " )"
 #: Words for the room as a whole ("in the middle of the room", "in the corner of the office").
 _ROOM = r"(?:room|space|area)"
+#: "... with two": how many of a kind a side of the room or a wall has.
+_HAVING = (
+    r"(?:with|that has|which has|having|where there are|that have) (?:the )?"
+    r"(?:two|three|four|five|six|[2-9])"
+)
+#: What of the room's depth a place names ("the back side", "the front part").
+_DEPTH_PART = r"(?: (?:side|end|part|half|section|area|row))?"
 CUE_PATTERNS: tuple[tuple[str, str], ...] = (
     ("left_of", r"(?!the left" + _OF_COUNT + ")" + _SIDE + r"left(?: hand)?(?: side)? of"),
     ("right_of", r"(?!the right" + _OF_COUNT + ")" + _SIDE + r"right(?: hand)?(?: side)? of"),
@@ -49,6 +56,21 @@ CUE_PATTERNS: tuple[tuple[str, str], ...] = (
                      r"(?:north|south)?(?:east|west)|north|south|northern|southern|eastern|"
                      r"western) )?(?:(?:left|right) (?:hand )?)?corner"
                      r"(?: of (?:the|this) " + _ROOM + r"|(?! of))"),
+    # "at the back of the room", "in the front left", "at the far end of the room": how
+    # far ahead of the observer, not behind or in front of a thing ("at the back of the
+    # desk" has "of" and a thing after it)
+    ("depth_back", r"(?:in|at|on|to|towards?) the (?:very |far )?(?:back|rear)"
+                   r"(?: (?:left|right))?" + _DEPTH_PART + r"(?: of (?:the|this) " + _ROOM
+                   + r"|(?! of\b))|(?:in|at|on|to|towards?) the (?:far|other|opposite) end "
+                   r"of (?:the|this) " + _ROOM),
+    ("depth_front", r"(?:in|at|on|to|towards?) the (?:very )?front"
+                    r"(?: (?:left|right))?" + _DEPTH_PART + r"(?: of (?:the|this) " + _ROOM
+                    + r"|(?! of\b))|(?:in|at|on|to|towards?) the near end of (?:the|this) "
+                    + _ROOM),
+    # "on the side with two trash cans", "on the wall with 3 pictures": of the room's two
+    # sides, the one where that many of them stand together (the count ends the cue)
+    ("side_with", r"(?:(?:on|at|in|along|by|against) )?the (?:side|end|half|part|area|"
+                  r"section|wall)(?: of (?:the|this) " + _ROOM + r")? " + _HAVING),
     ("place_alone", r"(?:all )?(?:by (?:it|them)sel(?:f|ves)|on (?:its|their) own|alone|"
                     r"isolated|apart from the others)"),
     # "at the end of the table", "at the head of the table" (not "the end of the room")
@@ -388,12 +410,20 @@ class Cue:
     end: int
 
 
-def find_cue(tokens: tuple[str, ...], offsets: tuple[int, ...], joined: str, i: int) -> Cue | None:
+def find_cue(
+    tokens: tuple[str, ...],
+    offsets: tuple[int, ...],
+    joined: str,
+    i: int,
+    skip: frozenset[str] = frozenset(),
+) -> Cue | None:
     """The longest cue starting at token ``i`` (``offsets``: character start of each token
-    in ``joined``), or ``None``."""
+    in ``joined``) of a kind not in ``skip``, or ``None``."""
     best: Cue | None = None
     best_len = 0
     for kind, pattern in CUES:
+        if kind in skip:
+            continue
         m = pattern.match(joined, offsets[i])
         if m is None:
             continue

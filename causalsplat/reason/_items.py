@@ -31,6 +31,15 @@ _SIDE_CUES = {"side_left": "left", "side_right": "right", "side_middle": "middle
 #: Place cues: where in the room ("in the corner", "in the middle of the room") or apart
 #: from the others of its kind ("by itself") a thing stands; modifiers of the target.
 _PLACE_CUES = {"place_corner": "corner", "place_centre": "centre", "place_alone": "alone"}
+#: Depth cues: "at the back of the room", "in the front left": the farthest or nearest ahead
+#: of the observer (``forward``), a modifier of the target.
+_DEPTH_CUES = {"depth_back": "back", "depth_front": "front"}
+#: Depth words -> how they rank (``forward``: how far ahead of the observer).
+_DEPTHS: dict[str, tuple[Metric, Op]] = {
+    "back": (Metric.FORWARD, Op.ARGMAX),
+    "rear": (Metric.FORWARD, Op.ARGMAX),
+    "front": (Metric.FORWARD, Op.ARGMIN),
+}
 #: Nouns of position that, right before a noun, single out the highest or lowest of its kind.
 _POSITION_ADJECTIVES = {"top": "highest", "bottom": "lowest"}
 #: Surfaces of a room that say, as "floor to ceiling" or "wall to wall", how far a thing
@@ -447,6 +456,17 @@ def read_items(
             i += 4
             continue
         if (
+            t in _DEPTHS
+            and i > 0
+            and tokens[i - 1] == "the"
+            and tokens[i + 1 : i + 2] in (("left",), ("right",))
+        ):
+            # "the back right monitor", "the front left one": ahead or near, then the side
+            flush()
+            items.append(Item(i, i + 1, mod=_side_or_depth(t)))
+            i += 1
+            continue
+        if (
             t in _POSITION_ADJECTIVES
             and i + 1 < len(tokens)
             and (
@@ -470,6 +490,14 @@ def read_items(
             i += 1
             continue
         cue = g.find_cue(tokens, tuple(offsets), joined, i)
+        if (
+            cue is not None
+            and cue.kind in _DEPTH_CUES
+            and cue.end < len(tokens)
+            and (mention_at(index, tokens, cue.end) or foreign_at(index, tokens, cue.end))
+        ):
+            # "at the back wall", "in the front row of chairs": the word is the noun's
+            cue = g.find_cue(tokens, tuple(offsets), joined, i, skip=frozenset(_DEPTH_CUES))
         worn = None if cue is None or cue.kind != "inside" else _worn_end(tokens, index, i, cue.end)
         if worn is not None:
             i = worn  # "the person in blue": theirs
@@ -478,11 +506,18 @@ def read_items(
             flush()
             if cue.kind in _SIDE_CUES:
                 items.append(Item(i, cue.end, mod=Modifier("side", _SIDE_CUES[cue.kind])))
-            elif cue.kind in _PLACE_CUES:
-                items.append(Item(i, cue.end, mod=Modifier("place", _PLACE_CUES[cue.kind])))
-                # "in the back right corner": the corner on the right
-                items += [Item(k, k + 1, mod=Modifier("side", g.SIDES[tokens[k]]))
-                          for k in range(i, cue.end) if tokens[k] in ("left", "right")]  # fmt: skip
+            elif cue.kind in _PLACE_CUES or cue.kind in _DEPTH_CUES:
+                if cue.kind in _PLACE_CUES:
+                    items.append(Item(i, cue.end, mod=Modifier("place", _PLACE_CUES[cue.kind])))
+                    said = _SIDE_OR_DEPTH
+                else:
+                    # "at the far end of the room" names no depth word
+                    items.append(Item(i, cue.end, mod=_side_or_depth(_DEPTH_CUES[cue.kind])))
+                    said = _SIDES
+                # "in the back right corner": the corner on the right, at the back; "at
+                # the back left of the room": the back one on the left
+                items += [Item(k, k + 1, mod=_side_or_depth(tokens[k]))
+                          for k in range(i, cue.end) if tokens[k] in said]  # fmt: skip
             else:
                 items.append(Item(i, cue.end, cue=cue))
             i = cue.end
@@ -625,3 +660,16 @@ def _worn_end(tokens: tuple[str, ...], index: CategoryIndex, i: int, end: int) -
     ):
         k += 1
     return k if k > j else None
+
+
+#: Words inside a place or depth cue that say a side or a depth ("back left corner").
+_SIDES = frozenset({"left", "right"})
+_SIDE_OR_DEPTH = _SIDES | frozenset(_DEPTHS)
+
+
+def _side_or_depth(word: str) -> Modifier:
+    """The modifier a side word ("left") or depth word ("back") inside a cue says."""
+    if word in _DEPTHS:
+        metric, direction = _DEPTHS[word]
+        return Modifier("extreme", word, direction=direction, metric=metric)
+    return Modifier("side", g.SIDES[word])

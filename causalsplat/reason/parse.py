@@ -1372,6 +1372,11 @@ class _Reader:
                     return k, Constraint("between", (anchors[0],))
                 return k, Constraint("closest", (anchors[0],))
         words = self.tokens[cue.start : cue.end]
+        if cue.kind == "side_with":
+            if not anchors:
+                return k, None
+            # the cue ends with the count of the things that stand together there
+            return k, Constraint(cue.kind, (replace(anchors[0], count=_number(words[-1])),))
         far = "far" in words or self.tokens[max(0, cue.start - 3) : cue.start] == _ALL_THE_WAY
         anchors = [self._anchor_kind(a) for a in anchors]
         return k, Constraint(cue.kind, tuple(anchors), far=far)

@@ -149,7 +149,11 @@ _WORDS = {
     "farthest": "farthest from", "between": "between", "left_of": "left of",
     "right_of": "right of", "in_front_of": "in front of", "behind": "behind",
     "with": "with", "end_of": "at the end of", "corner_of": "at the corner of",
+    "side_with": "on the side with",
 }  # fmt: skip
+#: What a group's own extent counts at least, in scene units (metres), when the side of the
+#: room it stands on is chosen by its gap to the others (:meth:`Planner._group_side`).
+GROUP_EXTENT = 0.1
 #: "At the end / corner of X": the candidate nearest an end (shorter edge) or a corner of
 #: X's footprint, not its middle.
 _FOOTPRINT = {"end_of": Metric.END_DISTANCE, "corner_of": Metric.CORNER_DISTANCE}
@@ -221,6 +225,10 @@ class Planner:
                 categories, how = grounded
                 b.note(f"anchor {np.text!r} read as {', '.join(categories)} (by {how})")
         categories = np.categories if categories is None else categories
+        if np.is_any and not categories:
+            # "on the side with two trash cans, the farthest one": one of them
+            categories = next((c.anchors[0].categories for c in np.constraints
+                               if c.kind == "side_with"), ())  # fmt: skip
         if np.is_any and not categories:
             step = self._non_structural()
         elif categories:
@@ -687,6 +695,11 @@ class Planner:
             self.b.note(f"relation {_WORDS.get(c.kind, c.kind)!r} dropped: its anchor is unknown")
             return None
         a = [x for x in anchors if x is not None]
+        if c.kind == "side_with":
+            there = self._side_with(step, a[0], c.anchors[0])
+            if there is not None and c.negated:
+                there = self.b.add(Op.DIFFERENCE, step, there)  # "not on the side with two"
+            return None if there is None else Planned(there, None)
         if not c.negated and self.contradicted_anchors.intersection(a):
             # nothing is related to what is not here: no relaxation, no closest instead
             return Planned(self._none_of(step), None)
@@ -989,14 +1002,13 @@ class Planner:
         ):  # fmt: skip
             # "the tall lamp on the left", "the larger pillow on the far right": of those
             # on that side, the tallest (largest)
-            return b.add(
-                np.extremes[0][1], self._side_half(step, np.side), metric=np.extremes[0][0],
-                k=self.k,
-            )  # fmt: skip
+            # "at the back on the left": of those on the left, the farthest ahead
+            view = self._side_view(step)
+            return self._extreme(self._side_half(step, np.side), *np.extremes[0], view)
         if np.extremes and not b.at_most_one(step):
             metric, direction = np.extremes[0]
             if metric is not Metric.Z or np.side not in ("left", "right"):
-                step = b.add(direction, step, metric=metric, k=self.k)
+                step = self._extreme(step, metric, direction, self._side_view(step))
             else:
                 # "the upper left cabinet": of those on the highest level, the leftmost
                 step = self._level(step, base, direction)
@@ -1014,6 +1026,68 @@ class Planner:
             middle = b.add(Op.MIDDLE, step, metric=metric, viewpoint=view)
             step = b.add(Op.ARGMIN, middle, metric=metric, viewpoint=view)
         return step
+
+    def _side_with(self, step: int, group: int, np: NounPhrase) -> int | None:
+        """Those of ``step`` on the side of the room where ``np.count`` of ``group``'s
+        entities stand apart from the others ("on the side with two trash cans", "on the
+        wall with two pictures"), as the ``k`` farthest ahead from the group's centre
+        towards that side (:meth:`_group_side`). ``None`` (the relation says nothing) when
+        the program does not know the entities, there are no more than ``count`` of them
+        or every candidate is on that side."""
+        n = np.count or 0
+        ids, candidates = self.b.within(group), self.b.ids.get(step)
+        if ids is None or candidates is None or not 0 < n < len(ids):
+            self.b.note(f"'on the side with {n} {np.text}': no such group; not used")
+            return None
+        view, cut = self._group_side(ids, n)
+        ahead = [i for i in candidates if self._ahead(i, view) > cut]
+        if not 0 < len(ahead) < len(candidates):
+            return None
+        self.b.note(f"on the side with {n} {np.text}: {len(ahead)} of {len(candidates)}")
+        return self.b.add(Op.ARGMAX, step, metric=Metric.FORWARD, k=len(ahead), viewpoint=view)
+
+    def _ahead(self, i: int, view: dict[str, list[float]]) -> float:
+        """How far entity ``i`` lies ahead of ``view``'s eye, horizontally (``forward``;
+        the view's direction a unit vector)."""
+        c, eye, to = self.ctx.by_id[i].centroid, view["eye"], view["target"]
+        return (c[0] - eye[0]) * (to[0] - eye[0]) + (c[1] - eye[1]) * (to[1] - eye[1])
+
+    def _group_side(self, ids: tuple[int, ...], n: int) -> tuple[dict[str, list[float]], float]:
+        """Where ``n`` of the entities ``ids`` (more than ``n``) stand apart: a view from
+        their centre towards those ``n`` and the least ``forward`` of that side. The ``n``
+        at either end of the horizontal axis they spread most along, or of the one across
+        it, whose gap to the rest is widest for their own extent along it (two doors in one
+        wall, 1 m from a third round the corner: 0.8 m apart across the wall, 0 m deep)."""
+        xy = [self.ctx.by_id[i].centroid[:2] for i in ids]
+        cx, cy = sum(p[0] for p in xy) / len(xy), sum(p[1] for p in xy) / len(xy)
+        sxx = sum((p[0] - cx) ** 2 for p in xy)
+        syy = sum((p[1] - cy) ** 2 for p in xy)
+        sxy = sum((p[0] - cx) * (p[1] - cy) for p in xy)
+        angle = 0.5 * math.atan2(2.0 * sxy, sxx - syy)  # the axis they spread most along
+        best: tuple[float, float, tuple[float, float]] | None = None  # score, cut, axis
+        for ux, uy in ((math.cos(angle), math.sin(angle)), (-math.sin(angle), math.cos(angle))):
+            for sign in (1.0, -1.0):
+                ahead = sorted(sign * ((p[0] - cx) * ux + (p[1] - cy) * uy) for p in xy)
+                gap, extent = ahead[-n] - ahead[-n - 1], ahead[-1] - ahead[-n]
+                score = gap / (extent + GROUP_EXTENT)
+                if best is None or score > best[0]:
+                    best = (score, (ahead[-n] + ahead[-n - 1]) / 2, (sign * ux, sign * uy))
+        assert best is not None
+        _, cut, (ax, ay) = best
+        z = float(self.ctx.centre[2])
+        return {"eye": [cx, cy, z], "target": [cx + ax, cy + ay, z]}, cut
+
+    def _extreme(
+        self, step: int, metric: Metric, direction: Op, view: dict[str, list[float]] | None
+    ) -> int:
+        """The ``k`` of ``step`` with the least (``argmin``) or most ``metric``; ``forward``
+        ("at the back of the room") is seen from ``view`` (:meth:`_side_view`), and
+        without one (the observer in the middle of the candidates) says nothing."""
+        if metric is Metric.FORWARD:
+            if view is None:
+                return step
+            return self.b.add(direction, step, metric=metric, k=self.k, viewpoint=view)
+        return self.b.add(direction, step, metric=metric, k=self.k)
 
     def _level(self, step: int, base: int, direction: Op) -> int:
         """Those of ``step`` on the highest (``argmax``) or lowest level of the phrase's

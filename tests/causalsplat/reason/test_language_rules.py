@@ -741,3 +741,82 @@ def test_neither_nor_negates_both_relations() -> None:
     assert ask(room, "the trash can that is not by the toilet or the desk") == (5,)
     ins = REASONER.parse("the trash can next to the toilet or the desk", room)
     assert ins.target is not None and len(ins.target.constraints) == 1
+
+
+#: A hall entered through door 1 on its south side: stools two rows deep ahead of it (2
+#: front left, 3 front right, 4 back left, 5 back right, as one comes in), a bookshelf
+#: against the north wall and a desk with its chair east of the stools.
+HALL: list[Box] = [
+    (1, "door", (0.0, -3.0, 1.0), (1.0, 0.1, 2.0)),
+    (2, "stool", (-1.0, 0.0, 0.35), (0.4, 0.4, 0.7)),
+    (3, "stool", (1.0, 0.2, 0.35), (0.4, 0.4, 0.7)),
+    (4, "stool", (-1.0, 3.0, 0.35), (0.4, 0.4, 0.7)),
+    (5, "stool", (1.0, 3.4, 0.35), (0.4, 0.4, 0.7)),
+    (6, "bookshelf", (0.0, 5.0, 1.0), (2.0, 0.4, 2.0)),
+    (7, "desk", (4.0, 0.0, 0.4), (1.2, 0.6, 0.8)),
+    (8, "chair", (4.0, 0.7, 0.45), (0.5, 0.5, 0.9)),
+]
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        ("as you come in through the door, the stool at the back left", (4,)),
+        ("as you come in through the door, the stool in the back right of the room", (5,)),
+        ("as you come in through the door, the front right stool", (3,)),
+        ("as you come in through the door, the stool at the front of the room", (2,)),
+        ("entering through the door, the stool at the far end of the room", (5,)),
+        ("entering through the door, the stool at the back", (5,)),
+    ],
+)
+def test_back_and_front_of_the_room_are_seen_from_the_observer(
+    text: str, expected: tuple[int, ...]
+) -> None:
+    # the farthest or nearest ahead of the observer, and of a side the one on it
+    assert ask(_scene(HALL), text) == expected
+
+
+def test_back_and_front_of_a_thing_are_not_the_room_s() -> None:
+    hall = _scene(HALL)
+    for text, kind in (
+        ("the chair at the back of the desk", "behind"),
+        ("the chair in front of the desk", "in_front_of"),
+        ("the stool at the back wall", "near"),
+    ):
+        ins = REASONER.parse(text, hall)
+        assert ins.target is not None and ins.target.extremes == ()
+        assert [c.kind for c in ins.target.constraints] == [kind]
+
+
+#: Two trash cans along the west wall (1, 2), three along the east wall (3-5), a desk in
+#: the north-west corner; 5 is the largest and tallest, 1 the next.
+BINS: list[Box] = [
+    (1, "trash can", (-3.0, -2.0, 0.4), (0.5, 0.5, 0.8)),
+    (2, "trash can", (-3.0, -1.2, 0.3), (0.4, 0.4, 0.6)),
+    (3, "trash can", (3.0, -2.0, 0.3), (0.4, 0.4, 0.6)),
+    (4, "trash can", (3.0, 0.0, 0.3), (0.4, 0.4, 0.6)),
+    (5, "trash can", (3.0, 2.0, 0.45), (0.6, 0.6, 0.9)),
+    (6, "desk", (-2.5, 2.0, 0.4), (1.2, 0.6, 0.8)),
+]
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        ("on the side with three trash cans, the one closest to the desk", (5,)),
+        ("on the side with two trash cans, the largest trash can", (1,)),
+        ("the trash can on the side of the room with 3 trash cans that is closest to the desk",
+         (5,)),
+        ("on the wall with two trash cans, the tallest one", (1,)),
+        ("the largest trash can not on the side with three trash cans", (1,)),
+    ],
+)  # fmt: skip
+def test_the_side_with_a_number_of_things_is_where_they_stand_together(
+    text: str, expected: tuple[int, ...]
+) -> None:
+    assert ask(_scene(BINS), text) == expected
+
+
+def test_no_side_holds_the_number_said_apart() -> None:
+    # five trash cans are no side with six: the words say nothing, the rest chooses
+    assert ask(_scene(BINS), "on the side with six trash cans, the one closest to the desk") == (2,)
