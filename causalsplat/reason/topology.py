@@ -1119,7 +1119,10 @@ class Planner:
     def _side_view(self, step: int) -> dict[str, list[float]] | None:
         """Where the observer stands to tell left from right among the candidates: looking
         from the scene centre (or the viewpoint) at the candidates' centroid; ``None`` when
-        the two are too close to give a direction."""
+        the two are too close to give a direction. A viewpoint that stands (or looks)
+        within :data:`MIDDLE` of the half diagonal of where the observer looks from (at)
+        gives no direction of its own ("sitting at the chair in the centre of the room"):
+        the scene centre looking at the candidates instead."""
         target = self._mean_centroid(self.b.within(step))
         if target is None:
             return None
@@ -1128,8 +1131,10 @@ class Planner:
         if ins.viewpoint is not None:
             where = self._centroid_of(ins.viewpoint)
             if where is not None:
-                eye = self._observer() or eye
-                eye, target = (where, eye) if ins.standing_at else (eye, where)
+                seen_from = self._observer() or eye
+                near = max(MIN_VIEW_DISTANCE, MIDDLE * self.ctx.half_diagonal)
+                if math.dist(where[:2], seen_from[:2]) >= near:
+                    eye, target = (where, seen_from) if ins.standing_at else (seen_from, where)
         if math.hypot(target[0] - eye[0], target[1] - eye[1]) < MIN_VIEW_DISTANCE:
             return None
         return {"eye": eye, "target": target}

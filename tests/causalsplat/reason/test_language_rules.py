@@ -820,3 +820,21 @@ def test_the_side_with_a_number_of_things_is_where_they_stand_together(
 def test_no_side_holds_the_number_said_apart() -> None:
     # five trash cans are no side with six: the words say nothing, the rest chooses
     assert ask(_scene(BINS), "on the side with six trash cans, the one closest to the desk") == (2,)
+
+
+def test_a_viewpoint_at_the_centre_gives_no_direction_of_its_own() -> None:
+    # sitting at the chair in the middle of the room, the observer could look anywhere:
+    # left and right are read as from the centre looking at the tables, not along the few
+    # centimetres between the chair and the centre
+    room = _scene([
+        (1, "chair", (-0.1, 0.15, 0.45), (0.5, 0.5, 0.9)),
+        (2, "table", (-2.0, 3.0, 0.4), (1.2, 0.8, 0.8)),
+        (3, "table", (2.0, 3.0, 0.4), (1.2, 0.8, 0.8)),
+        (4, "bookshelf", (0.0, -3.0, 1.0), (1.0, 0.4, 2.0)),
+    ])  # fmt: skip
+    assert ask(room, "sitting at the chair in the centre of the room, the table on the left") == (
+        2,
+    )
+    assert ask(room, "sitting at the chair in the centre of the room, the table on the right") == (
+        3,
+    )
