@@ -40,6 +40,17 @@ _HAVING = (
 )
 #: What of the room's depth a place names ("the back side", "the front part").
 _DEPTH_PART = r"(?: (?:side|end|part|half|section|area|row))?"
+
+
+def _depth(word: str) -> str:
+    """A place in the room's depth ("at the back", "in the front left of the room", "on
+    the back right"); "on the back" alone is a part of a thing ("holes on the back")."""
+    at = r"(?:in|at|to|towards?) the (?:very |far )?" + word + r"(?: (?:left|right))?"
+    on = r"on the (?:very |far )?" + word + r"(?: (?:left|right)| (?=side|end|part))"
+    end = _DEPTH_PART + r"(?: of (?:the|this) " + _ROOM + r"|(?! of\b))"
+    return rf"(?:{at}|{on}){end}|on the (?:very |far )?{word}{_DEPTH_PART} of (?:the|this) {_ROOM}"
+
+
 CUE_PATTERNS: tuple[tuple[str, str], ...] = (
     ("left_of", r"(?!the left" + _OF_COUNT + ")" + _SIDE + r"left(?: hand)?(?: side)? of"),
     ("right_of", r"(?!the right" + _OF_COUNT + ")" + _SIDE + r"right(?: hand)?(?: side)? of"),
@@ -59,20 +70,16 @@ CUE_PATTERNS: tuple[tuple[str, str], ...] = (
     # "at the back of the room", "in the front left", "at the far end of the room": how
     # far ahead of the observer, not behind or in front of a thing ("at the back of the
     # desk" has "of" and a thing after it)
-    ("depth_back", r"(?:in|at|on|to|towards?) the (?:very |far )?(?:back|rear)"
-                   r"(?: (?:left|right))?" + _DEPTH_PART + r"(?: of (?:the|this) " + _ROOM
-                   + r"|(?! of\b))|(?:in|at|on|to|towards?) the (?:far|other|opposite) end "
-                   r"of (?:the|this) " + _ROOM),
-    ("depth_front", r"(?:in|at|on|to|towards?) the (?:very )?front"
-                    r"(?: (?:left|right))?" + _DEPTH_PART + r"(?: of (?:the|this) " + _ROOM
-                    + r"|(?! of\b))|(?:in|at|on|to|towards?) the near end of (?:the|this) "
+    ("depth_back", _depth(r"(?:back|rear)") + r"|(?:in|at|on|to|towards?) the (?:far|other|"
+                   r"opposite) end of (?:the|this) " + _ROOM),
+    ("depth_front", _depth("front") + r"|(?:in|at|on|to|towards?) the near end of (?:the|this) "
                     + _ROOM),
     # "on the side with two trash cans", "on the wall with 3 pictures": of the room's two
     # sides, the one where that many of them stand together (the count ends the cue)
     ("side_with", r"(?:(?:on|at|in|along|by|against) )?the (?:side|end|half|part|area|"
                   r"section|wall)(?: of (?:the|this) " + _ROOM + r")? " + _HAVING),
     ("place_alone", r"(?:all )?(?:by (?:it|them)sel(?:f|ves)|on (?:its|their) own|alone|"
-                    r"isolated|apart from the others)"),
+                    r"isolated|lone|solitary|apart from the others)"),
     # "at the end of the table", "at the head of the table" (not "the end of the room")
     ("end_of", r"(?:(?:at|on|by|near|to|towards?) )?(?:the|one|either|each) "
                r"(?:(?:very|far|other|opposite|short|narrow|front|back|near|left|right) )?"

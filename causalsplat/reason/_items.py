@@ -23,7 +23,7 @@ from causalsplat.reason._mentions import (
     may_modify,
     mention_at,
 )
-from causalsplat.reason._text import ORDINALS
+from causalsplat.reason._text import NUMBER_WORDS, ORDINALS
 from queries import Metric, Op
 
 #: Side cues: "on the left" (no "of" after it) is a modifier, not a relation.
@@ -177,7 +177,14 @@ def _than_the_other(tokens: tuple[str, ...], i: int) -> int | None:
 
 #: Nouns of a group of like things ("the row of chairs").
 _GROUPS = frozenset({"line", "row", "group", "set", "cluster", "bunch", "series", "column",
-                     "collection", "pile", "stack"})  # fmt: skip
+                     "collection", "pile", "stack", "pair", "couple"})  # fmt: skip
+#: Group nouns that say how many: two.
+_PAIRS = frozenset({"pair", "couple"})
+
+
+def _number_word(word: str) -> int:
+    """The number a word says ("three", "3"); 0 for any other word."""
+    return int(word) if word.isdigit() else NUMBER_WORDS.get(word, 0)
 
 
 def _group_of(tokens: tuple[str, ...], i: int) -> bool:
@@ -336,6 +343,38 @@ _COUNT_STARTS = frozenset({"left", "right", "top", "bottom", "end", "front", "ba
                            "southwest", "northern", "southern", "eastern", "western"})  # fmt: skip
 
 
+#: Words that count from the far end ("the last one", "the next to last stool").
+_LAST = frozenset({"last", "final", "penultimate"})
+
+
+def _from_last(tokens: tuple[str, ...], i: int) -> tuple[int, int] | None:
+    """``(n, end)`` when the words from ``i`` count ``n`` from the far end: "penultimate",
+    "next to last", "second to last", "second from last", "second last", "last but one"
+    (2), "third to last" (3); else ``None``.
+
+    >>> _from_last(("the", "next", "to", "last", "stool"), 1)
+    (2, 4)
+    >>> _from_last(("the", "stool", "next", "to", "the", "door"), 2) is None
+    True
+    """
+    t = tokens[i]
+    if t == "penultimate":
+        return 2, i + 1
+    after = tokens[i + 1 : i + 3]
+    if t == "last" and after == ("but", "one"):
+        return 2, i + 3
+    n = 2 if t == "next" else ORDINALS.get(t, 0)
+    if n < 2:
+        return None
+    if after in (("to", "last"), ("from", "last"), ("from", "the")) and (
+        after[1] == "last" or tokens[i + 3 : i + 4] == ("last",)
+    ):
+        return (n, i + 3) if after[1] == "last" else (n, i + 4)
+    if t != "next" and after[:1] == ("last",):
+        return n, i + 2
+    return None
+
+
 def _counted_from(tokens: tuple[str, ...], i: int) -> bool:
     """Whether ``tokens[i]`` is the "from" of a count from a thing: "the second stool from
     the window", "the 2nd desk from the door" (the second closest to it), not from an end
@@ -347,7 +386,8 @@ def _counted_from(tokens: tuple[str, ...], i: int) -> bool:
     >>> _counted_from(("the", "second", "from", "the", "left"), 2)
     False
     """
-    if tokens[i] != "from" or not any(t in ORDINALS for t in tokens[max(0, i - 3) : i]):
+    before = tokens[max(0, i - 4) : i]
+    if tokens[i] != "from" or not any(t in ORDINALS or t in _LAST for t in before):
         return False
     j = i + 1
     while j < len(tokens) and tokens[j] in ("the", "a", "an"):
@@ -450,10 +490,19 @@ def read_items(
             i = heap[0]
             continue
         if _group_of(tokens, i):
-            # "in the row of shoes": one of them, beside the others, not inside them
             flush()
-            items.append(Item(i, i + 4, cue=g.Cue("near", i, i + 4)))
-            i += 4
+            if i + 4 < len(tokens) and _number_word(tokens[i + 4]) > 1:
+                # "in the cluster of three stools": one of the three that stand together
+                items.append(Item(i, i + 5, cue=g.Cue("side_with", i, i + 5)))
+                i += 5
+            elif tokens[i + 2] in _PAIRS:
+                # "the left one of the pair of chairs": of the two that stand together
+                items.append(Item(i, i + 4, cue=g.Cue("side_with", i, i + 4)))
+                i += 4
+            else:
+                # "in the row of shoes": one of them, beside the others, not inside them
+                items.append(Item(i, i + 4, cue=g.Cue("near", i, i + 4)))
+                i += 4
             continue
         if (
             t in _DEPTHS
@@ -483,10 +532,19 @@ def read_items(
             pending.append((i, Modifier("extreme", t, direction=direction, metric=metric)))
             i += 1
             continue
-        if _counted_from(tokens, i):
-            # "the second stool from the window": the second closest to it
+        from_last = _from_last(tokens, i)
+        if from_last is not None:
+            # "the next to last stool", "the penultimate one": counted from the other end
             flush()
-            items.append(Item(i, i + 1, cue=g.Cue("closest", i, i + 1)))
+            items.append(Item(i, from_last[1], mod=Modifier("ordinal", number=-from_last[0])))
+            i = from_last[1]
+            continue
+        if _counted_from(tokens, i):
+            # "the second stool from the window": the second closest to it; "the last
+            # (next to last) stool from the window": the (second) farthest
+            flush()
+            kind = "farthest" if _LAST & set(tokens[max(0, i - 4) : i]) else "closest"
+            items.append(Item(i, i + 1, cue=g.Cue(kind, i, i + 1)))
             i += 1
             continue
         cue = g.find_cue(tokens, tuple(offsets), joined, i)

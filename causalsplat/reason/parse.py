@@ -286,6 +286,7 @@ def _parse(text: str, tokens: tuple[str, ...], index: CategoryIndex) -> Instruct
         count = _count_of(main_tokens, target, index.lexicon)
         if count is not None:
             target = replace(target, count=count)
+        target = _of_a_group(main_tokens, target, index.lexicon)
     closure = kind == "set" and bool(g.CLOSURE_TRIGGERS.search(joined))
     return Instruction(text, tokens, kind, target, viewpoint=viewpoint, standing_at=standing,
                        observer_at=view.observer,
@@ -362,9 +363,13 @@ def _quantified(tokens: tuple[str, ...], target: NounPhrase) -> bool:
     """Whether a universal quantifier governs the target: before its noun ("all the seats
     at the table", "every pillow on the bed"), or anywhere when the target is any entity
     ("everything on the desk")."""
+    # "next to each other" says how they stand, not that every one is asked for
+    said = [t for k, t in enumerate(tokens) if tokens[k : k + 2] != ("each", "other")]
     if target.is_any or target.mention is None:
-        return any(t in _UNIVERSAL for t in tokens)
-    return any(t in _UNIVERSAL for t in tokens[: target.mention.start])
+        return any(t in _UNIVERSAL for t in said)
+    before = [t for k, t in enumerate(tokens[: target.mention.start])
+              if tokens[k : k + 2] != ("each", "other")]  # fmt: skip
+    return any(t in _UNIVERSAL for t in before)
 
 
 #: Lexicon score from which a noun names a scene category itself (its name, base form or
@@ -855,6 +860,37 @@ def _count_of(tokens: tuple[str, ...], np: NounPhrase, lexicon: Lexicon) -> int 
     while j >= 0 and tokens[j] in ("the", "these", "those"):
         j -= 1
     return None if j >= 0 and tokens[j] in _GROUPING else n
+
+
+#: Words before "the two chairs" that make the target one of that many standing together
+#: ("the left *of* the two chairs", "*out of* the three lamps").
+_PARTITIVE = frozenset({"of", "among", "amongst", "from"})
+
+
+def _of_a_group(tokens: tuple[str, ...], np: NounPhrase, lexicon: Lexicon) -> NounPhrase:
+    """``np`` picked from a counted group it names, with no relation but closest or farthest
+    ("the right-hand of the two side-by-side doors", "of the three chairs, the one closest
+    to the door") keeps to where that many of its kind stand together (a ``side_with``
+    constraint on its own kind, the first of its constraints); else ``np`` as it is."""
+    mention = np.mention
+    if mention is None or mention.generic or not mention.plural:
+        return np
+    if any(c.kind not in ("closest", "farthest") for c in np.constraints):
+        return np  # "of the two tables under the window": the relation makes the group
+    if lexicon.phrase_lemma(tokens[mention.start : mention.end]) != mention.phrase:
+        return np  # a phrase of another clause (the viewpoint's)
+    j = mention.start - 1
+    while j >= 0 and (tokens[j] in g.EXTREMES or is_color_word(tokens[j]) or tokens[j] in
+                      ("side", "by", "-")):  # fmt: skip
+        j -= 1  # "the two side by side doors"
+    n = _number(tokens[j]) if j >= 0 else 0
+    j -= 1
+    while j >= 0 and tokens[j] in ("the", "these", "those"):
+        j -= 1
+    if n < 2 or j < 0 or tokens[j] not in _PARTITIVE:
+        return np
+    group = NounPhrase(mention, count=n)
+    return replace(np, constraints=(Constraint("side_with", (group,)), *np.constraints))
 
 
 def _word_before(tokens: tuple[str, ...], np: NounPhrase) -> str | None:
@@ -1373,10 +1409,14 @@ class _Reader:
                 return k, Constraint("closest", (anchors[0],))
         words = self.tokens[cue.start : cue.end]
         if cue.kind == "side_with":
-            if not anchors:
+            # "in the cluster of three by the counter": three of the target's kind
+            group = anchors[0] if anchors else self.target
+            if group is None:
                 return k, None
-            # the cue ends with the count of the things that stand together there
-            return k, Constraint(cue.kind, (replace(anchors[0], count=_number(words[-1])),))
+            # the cue ends with the count of the things that stand together there, or
+            # names a pair
+            count = _number(words[-1]) or 2
+            return k, Constraint(cue.kind, (replace(group, count=count, constraints=()),))
         far = "far" in words or self.tokens[max(0, cue.start - 3) : cue.start] == _ALL_THE_WAY
         anchors = [self._anchor_kind(a) for a in anchors]
         return k, Constraint(cue.kind, tuple(anchors), far=far)

@@ -630,6 +630,13 @@ class Planner:
             # a relation with more to come leaves the choosing to what comes ("the dresser
             # under the bed, farther from the desk"): it selects, never picks one
             nth = np.ordinal if k == ranked and not np.side and (np.ordinal or 0) > 1 else 1
+            if (
+                k == ranked
+                and not np.side
+                and (np.ordinal or 0) < -1
+                and constraint.kind == "farthest"
+            ):
+                nth = -(np.ordinal or 0)  # "the next to last from the window": 2nd farthest
             out = self.relation(step, constraint, singular=singular,
                                 selectors=selectors or k < final, nth=nth,
                                 after=last.anchor)  # fmt: skip
@@ -1013,7 +1020,11 @@ class Planner:
                 # "the upper left cabinet": of those on the highest level, the leftmost
                 step = self._level(step, base, direction)
         if np.side in ("left", "right") and not b.at_most_one(step):
-            there = self._side(step, np.side, np.ordinal or 1)
+            side, nth = np.side, np.ordinal or 1
+            if nth < -1:
+                # "the second to last from the left": the second from the right
+                side, nth = ("right" if side == "left" else "left"), -nth
+            there = self._side(step, side, nth)
             # "not the door to your left": every other one
             step = b.add(Op.DIFFERENCE, step, there) if np.side_negated else there
         elif np.side == "middle" and not b.at_most_one(step):
@@ -1037,13 +1048,13 @@ class Planner:
         n = np.count or 0
         ids, candidates = self.b.within(group), self.b.ids.get(step)
         if ids is None or candidates is None or not 0 < n < len(ids):
-            self.b.note(f"'on the side with {n} {np.text}': no such group; not used")
+            self.b.note(f"'{n} {np.text}' standing together: no such group; not used")
             return None
         view, cut = self._group_side(ids, n)
         ahead = [i for i in candidates if self._ahead(i, view) > cut]
         if not 0 < len(ahead) < len(candidates):
             return None
-        self.b.note(f"on the side with {n} {np.text}: {len(ahead)} of {len(candidates)}")
+        self.b.note(f"where {n} {np.text} stand together: {len(ahead)} of {len(candidates)}")
         return self.b.add(Op.ARGMAX, step, metric=Metric.FORWARD, k=len(ahead), viewpoint=view)
 
     def _ahead(self, i: int, view: dict[str, list[float]]) -> float:

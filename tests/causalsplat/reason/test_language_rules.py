@@ -15,6 +15,7 @@ from causalsplat.reason._text import tokenize
 from causalsplat.reason.embed import embeddings_available
 from causalsplat.reason.offline import OfflineReasoner
 from causalsplat.reason.parse import _split_viewpoint
+from queries import Metric, Op
 
 REASONER = OfflineReasoner(embeddings=False)
 
@@ -786,6 +787,11 @@ def test_back_and_front_of_a_thing_are_not_the_room_s() -> None:
         ins = REASONER.parse(text, hall)
         assert ins.target is not None and ins.target.extremes == ()
         assert [c.kind for c in ins.target.constraints] == [kind]
+    # "on the back" alone is the thing's own back; "on the back left" a place
+    ins = REASONER.parse("the chair with holes on the back", hall)
+    assert ins.target is not None and ins.target.extremes == ()
+    ins = REASONER.parse("the stool on the back left", hall)
+    assert ins.target is not None and ins.target.extremes == ((Metric.FORWARD, Op.ARGMAX),)
 
 
 #: Two trash cans along the west wall (1, 2), three along the east wall (3-5), a desk in
@@ -809,6 +815,10 @@ BINS: list[Box] = [
          (5,)),
         ("on the wall with two trash cans, the tallest one", (1,)),
         ("the largest trash can not on the side with three trash cans", (1,)),
+        ("the trash can in the cluster of three that is closest to the desk", (5,)),
+        ("the largest of the pair of trash cans", (1,)),
+        ("the largest of the two trash cans", (1,)),
+        ("out of the three trash cans, the one closest to the desk", (5,)),
     ],
 )  # fmt: skip
 def test_the_side_with_a_number_of_things_is_where_they_stand_together(
@@ -838,3 +848,47 @@ def test_a_viewpoint_at_the_centre_gives_no_direction_of_its_own() -> None:
     assert ask(room, "sitting at the chair in the centre of the room, the table on the right") == (
         3,
     )
+
+
+def test_a_lone_thing_stands_apart(room: SceneContext) -> None:
+    for text in ("the lone chair", "the solitary chair", "the chair on its own"):
+        ins = REASONER.parse(text, room)
+        assert ins.target is not None and ins.target.place == "alone"
+
+
+#: A window and four stools in a line away from it (2 nearest, 5 farthest).
+ROW: list[Box] = [
+    (1, "window", (0.0, 0.0, 1.5), (1.2, 0.1, 1.0)),
+    *((k, "stool", (0.0, float(k - 1), 0.35), (0.4, 0.4, 0.7)) for k in range(2, 6)),
+]
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        ("the last stool from the window", (5,)),
+        ("the next to last stool from the window", (4,)),
+        ("the penultimate stool from the window", (4,)),
+        ("the second to last stool from the window", (4,)),
+        ("the stool that is last but one from the window", (4,)),
+        ("the third to last stool from the window", (3,)),
+        ("the second stool from the window", (3,)),
+        ("the stool next to the window", (2,)),
+    ],
+)
+def test_counting_from_the_far_end(text: str, expected: tuple[int, ...]) -> None:
+    assert ask(_scene(ROW), text) == expected
+
+
+def test_second_to_last_from_a_side_is_second_from_the_other() -> None:
+    ins = REASONER.parse("the second to last stool from the left", _scene(ROW))
+    assert ins.target is not None and (ins.target.side, ins.target.ordinal) == ("left", -2)
+
+
+def test_each_other_asks_for_one() -> None:
+    # "two doors next to each other, the larger one": how they stand, not every one
+    ins = REASONER.parse(
+        "on the wall with two trash cans beside each other, it's the taller one", _scene(BINS)
+    )
+    assert ins.kind == "refer"
+    assert REASONER.parse("each trash can by the desk", _scene(BINS)).kind == "set"
