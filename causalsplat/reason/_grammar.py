@@ -332,6 +332,7 @@ INFINITIVE_HEADS = frozenset({"want", "wants", "wanted", "need", "needs", "like"
 #: Side words (relative to the observer): word -> "left" | "right" | "middle".
 SIDES: dict[str, str] = {
     "left": "left", "leftmost": "left", "rightmost": "right", "right": "right",
+    "lefthand": "left", "righthand": "right",
     "middle": "middle", "center": "middle", "centre": "middle", "central": "middle",
 }  # fmt: skip
 #: Bodily states that point at an affordance ("I am thirsty" -> drink).

@@ -626,6 +626,14 @@ class Planner:
             if c.kind in ("closest", "farthest") and not c.negated
         ]  # fmt: skip
         ranked = extremal[-1] if extremal else -1
+        if (
+            ranked >= 0 and np.side in ("left", "right") and not np.side_negated
+            and not np.ordinal and not np.extremes and not self.b.at_most_one(step)
+        ):  # fmt: skip
+            # "the closest chair on the left", "the lamp on the left that is closest to the
+            # windows": of those on that side, the closest (before, the closest alone,
+            # the side left out once one was chosen)
+            step = self._side_half(step, np.side)
         for k, constraint in enumerate(np.constraints):
             # a relation with more to come leaves the choosing to what comes ("the dresser
             # under the bed, farther from the desk"): it selects, never picks one

@@ -892,3 +892,16 @@ def test_each_other_asks_for_one() -> None:
     )
     assert ins.kind == "refer"
     assert REASONER.parse("each trash can by the desk", _scene(BINS)).kind == "set"
+
+
+def test_a_side_and_closest_pick_the_closest_on_that_side() -> None:
+    # seen from the door (looking north), stools 2 and 4 are on the left; of them, the
+    # one closest to the bookshelf is 4; the closest of all is 5
+    assert ask(_scene(HALL), "entering through the door, the stool on the left that is"
+               " closest to the bookshelf") == (4,)  # fmt: skip
+
+
+@pytest.mark.parametrize(("word", "side"), [("righthand", "right"), ("lefthand", "left")])
+def test_a_hand_side_written_as_one_word(word: str, side: str) -> None:
+    ins = REASONER.parse(f"the {word} stool closest to the bookshelf", _scene(HALL))
+    assert ins.target is not None and ins.target.side == side
