@@ -290,7 +290,12 @@ def _noun_phrase(mention: object, mods: list[Modifier]) -> object:
     return NounPhrase(
         mention,  # type: ignore[arg-type]
         attributes=tuple(m.value for m in mods if m.kind == "attribute"),
-        extremes=tuple((m.metric, m.direction) for m in mods if m.kind == "extreme"),
+        extremes=tuple(
+            (m.metric, m.direction) for m in mods if m.kind == "extreme" and not m.negated
+        ),
+        not_extremes=tuple(
+            (m.metric, m.direction) for m in mods if m.kind == "extreme" and m.negated
+        ),
         side=next((m.value for m in mods if m.kind == "side"), None),
         place=next((m.value for m in mods if m.kind == "place"), None),
         place_negated=any(m.negated for m in mods if m.kind == "place"),

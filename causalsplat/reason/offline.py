@@ -247,6 +247,7 @@ def _reading(ins: Instruction) -> str:
     parts += [f"not {word}" for word in target.not_attributes]
     if target.extremes:
         parts.append(f"{target.extremes[0][1]} {target.extremes[0][0]}")
+    parts += [f"not {op} {metric}" for metric, op in target.not_extremes]
     if target.place:
         parts.append(f"place {'not ' if target.place_negated else ''}{target.place}")
     if target.side:

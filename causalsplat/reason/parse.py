@@ -36,14 +36,15 @@ class NounPhrase:
 
     ``mention`` is ``None`` for "anything" (a wh-word or "something"); ``attributes`` are
     modifier words that may match stored attribute values ("black"); ``extremes`` are
-    (metric, ``argmax``/``argmin``) from size and height words; ``side`` is ``left`` /
+    (metric, ``argmax``/``argmin``) from size, height and depth words; ``side`` is ``left`` /
     ``right`` / ``middle`` / ``top``; ``ordinal`` is 1 for "first", 2 for "second"...;
     ``place`` is where in the room it stands: ``corner`` (farthest from the scene centre),
     ``centre`` (closest to it) or ``alone`` (farthest from the others of its kind);
     ``place_negated``: not the one there ("not the one in the corner"); ``side_negated``:
     not the one on that side ("not the door to your left");
     ``not_attributes``: attribute words it does not have ("the chair that is not black",
-    "the brown door, not the white one"); ``count``: how many the target phrase asks for
+    "the brown door, not the white one"); ``not_extremes``: superlatives it is not ("the
+    stool that is not the tallest", "not at the front of the room"); ``count``: how many the target phrase asks for
     when it says a number ("the two stools closest to the window": 2), else ``None``.
     """
 
@@ -51,6 +52,7 @@ class NounPhrase:
     attributes: tuple[str, ...] = ()
     not_attributes: tuple[str, ...] = ()
     extremes: tuple[tuple[Metric, Op], ...] = ()
+    not_extremes: tuple[tuple[Metric, Op], ...] = ()
     side: str | None = None
     ordinal: int | None = None
     place: str | None = None
@@ -1062,7 +1064,7 @@ class _Reader:
                 self.constraints.append(Constraint(kind, (np,), span=span))
             elif it.mod is not None:
                 mod = it.mod
-                if negated and mod.kind in ("place", "attribute", "side"):
+                if negated and mod.kind in ("place", "attribute", "side", "extreme"):
                     # "not the one in the corner", "the chair that is not black", "not the
                     # door to your left"
                     mod = replace(mod, negated=True)
@@ -1130,12 +1132,15 @@ class _Reader:
         if (
             negated
             and self.target is not None
-            and np.attributes
+            and (np.attributes or np.extremes)
             and not self.target.is_any
             and (np.is_any or set(np.categories) == set(self.target.categories))
         ):
+            # "not the white one", "that isn't the biggest one"
             self.target = replace(
-                self.target, not_attributes=(*self.target.not_attributes, *np.attributes)
+                self.target,
+                not_attributes=(*self.target.not_attributes, *np.attributes),
+                not_extremes=(*self.target.not_extremes, *np.extremes),
             )
             return True
         if (
@@ -1548,7 +1553,14 @@ def _with_modifiers(np: NounPhrase, mods: list[Modifier]) -> NounPhrase:
         np,
         attributes=(*np.attributes, *(m.value for m in attributes if not m.negated)),
         not_attributes=(*np.not_attributes, *(m.value for m in attributes if m.negated)),
-        extremes=(*np.extremes, *((m.metric, m.direction) for m in mods if m.kind == "extreme")),
+        extremes=(
+            *np.extremes,
+            *((m.metric, m.direction) for m in mods if m.kind == "extreme" and not m.negated),
+        ),
+        not_extremes=(
+            *np.not_extremes,
+            *((m.metric, m.direction) for m in mods if m.kind == "extreme" and m.negated),
+        ),
         side=np.side or next((m.value for m in mods if m.kind == "side"), None),
         side_negated=(
             np.side_negated if np.side else any(m.negated for m in mods if m.kind == "side")
@@ -1563,7 +1575,9 @@ def _with_modifiers(np: NounPhrase, mods: list[Modifier]) -> NounPhrase:
 
 def _modified(np: NounPhrase) -> bool:
     """Whether anything besides its noun singles the phrase out."""
-    return bool(np.attributes or np.extremes or np.side or np.place or np.ordinal)
+    return bool(
+        np.attributes or np.extremes or np.not_extremes or np.side or np.place or np.ordinal
+    )
 
 
 def _merge_modifiers(subject: NounPhrase, target: NounPhrase) -> NounPhrase:
@@ -1574,6 +1588,7 @@ def _merge_modifiers(subject: NounPhrase, target: NounPhrase) -> NounPhrase:
         attributes=(*subject.attributes, *target.attributes),
         not_attributes=(*subject.not_attributes, *target.not_attributes),
         extremes=(*subject.extremes, *target.extremes),
+        not_extremes=(*subject.not_extremes, *target.not_extremes),
         side=subject.side or target.side,
         side_negated=subject.side_negated if subject.side else target.side_negated,
         place=subject.place or target.place,

@@ -616,9 +616,16 @@ class Planner:
         for c in np.constraints:
             if c.kind == "with" and not c.negated and self._names_nothing(c.anchors[0]):
                 step = self._part_colours(step, c.anchors[0])
+        for metric, direction in np.not_extremes:
+            if not self.b.at_most_one(step):
+                # "the stool that is not the tallest": every one but the tallest of its
+                # kind, before relations choose among them
+                there = self._extreme(step, metric, direction, self._side_view(step))
+                if there != step:
+                    step = self.b.add(Op.DIFFERENCE, step, there)
         last = Planned(step)
         base = step
-        selectors = bool(np.extremes or np.side or np.ordinal or np.place)
+        selectors = bool(np.extremes or np.not_extremes or np.side or np.ordinal or np.place)
         final = len(np.constraints) - 1
         # "the second closest to the window": the ordinal ranks the last closest/farthest
         extremal = [

@@ -905,3 +905,11 @@ def test_a_side_and_closest_pick_the_closest_on_that_side() -> None:
 def test_a_hand_side_written_as_one_word(word: str, side: str) -> None:
     ins = REASONER.parse(f"the {word} stool closest to the bookshelf", _scene(HALL))
     assert ins.target is not None and ins.target.side == side
+
+
+def test_not_the_largest_is_every_other_one() -> None:
+    bins = _scene(BINS)
+    # of the four that are not the largest (5), the largest is 1
+    assert ask(bins, "the trash can that is not the largest") == (1,)
+    assert ask(bins, "the trash can that isn't the biggest one") == (1,)
+    assert REASONER.parse("the largest trash can", bins).target.not_extremes == ()  # type: ignore[union-attr]
