@@ -44,8 +44,9 @@ class NounPhrase:
     not the one on that side ("not the door to your left");
     ``not_attributes``: attribute words it does not have ("the chair that is not black",
     "the brown door, not the white one"); ``not_extremes``: superlatives it is not ("the
-    stool that is not the tallest", "not at the front of the room"); ``count``: how many the target phrase asks for
-    when it says a number ("the two stools closest to the window": 2), else ``None``.
+    stool that is not the tallest", "not at the front of the room"); ``count``: how many
+    the target phrase asks for when it says a number ("the two stools closest to the
+    window": 2), else ``None``.
     """
 
     mention: Mention | None
