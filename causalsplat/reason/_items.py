@@ -23,7 +23,7 @@ from causalsplat.reason._mentions import (
     may_modify,
     mention_at,
 )
-from causalsplat.reason._text import NUMBER_WORDS, ORDINALS
+from causalsplat.reason._text import ORDINALS, number_word
 from queries import Metric, Op
 
 #: Side cues: "on the left" (no "of" after it) is a modifier, not a relation.
@@ -180,11 +180,6 @@ _GROUPS = frozenset({"line", "row", "group", "set", "cluster", "bunch", "series"
                      "collection", "pile", "stack", "pair", "couple"})  # fmt: skip
 #: Group nouns that say how many: two.
 _PAIRS = frozenset({"pair", "couple"})
-
-
-def _number_word(word: str) -> int:
-    """The number a word says ("three", "3"); 0 for any other word."""
-    return int(word) if word.isdigit() else NUMBER_WORDS.get(word, 0)
 
 
 def _group_of(tokens: tuple[str, ...], i: int) -> bool:
@@ -496,7 +491,7 @@ def read_items(
             continue
         if _group_of(tokens, i):
             flush()
-            if i + 4 < len(tokens) and _number_word(tokens[i + 4]) > 1:
+            if i + 4 < len(tokens) and number_word(tokens[i + 4]) > 1:
                 # "in the cluster of three stools": one of the three that stand together
                 items.append(Item(i, i + 5, cue=g.Cue("side_with", i, i + 5)))
                 i += 5

@@ -26,6 +26,11 @@ ORDINALS: dict[str, int] = {
 }  # fmt: skip
 
 
+def number_word(word: str) -> int:
+    """The number a word says ("two", "3"); 0 for any other word."""
+    return int(word) if word.isdigit() else NUMBER_WORDS.get(word, 0)
+
+
 def normalise(text: str) -> str:
     """Unicode-folded, lower-case text with typographic quotes made plain."""
     text = unicodedata.normalize("NFKC", text).lower()

@@ -25,7 +25,7 @@ from causalsplat.reason._conditions import (
 from causalsplat.reason._items import Item, Modifier, describes, read_items
 from causalsplat.reason._mentions import NAMED, CategoryIndex, Mention, mention_at
 from causalsplat.reason._spelling import correct
-from causalsplat.reason._text import NUMBER_WORDS, tokenize
+from causalsplat.reason._text import NUMBER_WORDS, number_word, tokenize
 from causalsplat.reason.lexicon import Lexicon
 from queries import Metric, Op
 
@@ -177,7 +177,7 @@ def others_as_ones(tokens: tuple[str, ...], index: CategoryIndex) -> tuple[str, 
             out += ["other", "ones"]
             continue
         out.append(t)
-        counted = (int(t) if t.isdigit() else NUMBER_WORDS.get(t, 0)) > 1  # not "the other one"
+        counted = number_word(t) > 1  # not "the other one"
         if counted and i > 0 and tokens[i - 1] == "other":
             after = i + 1
             if after == len(tokens) or (
@@ -366,13 +366,12 @@ def _quantified(tokens: tuple[str, ...], target: NounPhrase) -> bool:
     """Whether a universal quantifier governs the target: before its noun ("all the seats
     at the table", "every pillow on the bed"), or anywhere when the target is any entity
     ("everything on the desk")."""
+    end = len(tokens) if target.is_any or target.mention is None else target.mention.start
     # "next to each other" says how they stand, not that every one is asked for
-    said = [t for k, t in enumerate(tokens) if tokens[k : k + 2] != ("each", "other")]
-    if target.is_any or target.mention is None:
-        return any(t in _UNIVERSAL for t in said)
-    before = [t for k, t in enumerate(tokens[: target.mention.start])
-              if tokens[k : k + 2] != ("each", "other")]  # fmt: skip
-    return any(t in _UNIVERSAL for t in before)
+    return any(
+        t in _UNIVERSAL and tokens[k : k + 2] != ("each", "other")
+        for k, t in enumerate(tokens[:end])
+    )
 
 
 #: Lexicon score from which a noun names a scene category itself (its name, base form or
@@ -812,12 +811,7 @@ def _counted(tokens: tuple[str, ...], np: NounPhrase) -> bool:
         j -= 1
     if j < 0:
         return False
-    return _number(tokens[j]) > 1
-
-
-def _number(word: str) -> int:
-    """The number a word says ("two", "3"); 0 for any other word."""
-    return int(word) if word.isdigit() else NUMBER_WORDS.get(word, 0)
+    return number_word(tokens[j]) > 1
 
 
 #: Words before "the two chairs" that make the number a group the target is picked from
@@ -856,7 +850,7 @@ def _count_of(tokens: tuple[str, ...], np: NounPhrase, lexicon: Lexicon) -> int 
         j -= 1
     if j < 0:
         return None
-    n = _number(tokens[j])
+    n = number_word(tokens[j])
     if n < 2:
         return None
     j -= 1
@@ -886,7 +880,7 @@ def _of_a_group(tokens: tuple[str, ...], np: NounPhrase, lexicon: Lexicon) -> No
     while j >= 0 and (tokens[j] in g.EXTREMES or is_color_word(tokens[j]) or tokens[j] in
                       ("side", "by", "-")):  # fmt: skip
         j -= 1  # "the two side by side doors"
-    n = _number(tokens[j]) if j >= 0 else 0
+    n = number_word(tokens[j]) if j >= 0 else 0
     j -= 1
     while j >= 0 and tokens[j] in ("the", "these", "those"):
         j -= 1
@@ -1421,7 +1415,7 @@ class _Reader:
                 return k, None
             # the cue ends with the count of the things that stand together there, or
             # names a pair
-            count = _number(words[-1]) or 2
+            count = number_word(words[-1]) or 2
             return k, Constraint(cue.kind, (replace(group, count=count, constraints=()),))
         far = "far" in words or self.tokens[max(0, cue.start - 3) : cue.start] == _ALL_THE_WAY
         anchors = [self._anchor_kind(a) for a in anchors]

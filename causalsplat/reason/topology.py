@@ -63,7 +63,7 @@ from causalsplat.reason.parse import Constraint, Instruction, NounPhrase
 from graph_store import Entity, RelationType
 from queries import Metric, Op
 from queries.model import MAX_K, MIN_VIEW_DISTANCE
-from queries.semantics import attribute_filter, normalise_text
+from queries.semantics import PY, attribute_filter, metric_value, normalise_text
 
 #: Candidates whose colour is within this (weighted Delta E) of the one nearest to a colour
 #: word are kept with it: one measured colour never singles out an object on its own.
@@ -620,7 +620,7 @@ class Planner:
             if not self.b.at_most_one(step):
                 # "the stool that is not the tallest": every one but the tallest of its
                 # kind, before relations choose among them
-                there = self._extreme(step, metric, direction, self._side_view(step))
+                there = self._extreme(step, metric, direction)
                 if there != step:
                     step = self.b.add(Op.DIFFERENCE, step, there)
         last = Planned(step)
@@ -1025,12 +1025,11 @@ class Planner:
             # "the tall lamp on the left", "the larger pillow on the far right": of those
             # on that side, the tallest (largest)
             # "at the back on the left": of those on the left, the farthest ahead
-            view = self._side_view(step)
-            return self._extreme(self._side_half(step, np.side), *np.extremes[0], view)
+            return self._extreme(self._side_half(step, np.side), *np.extremes[0], seen=step)
         if np.extremes and not b.at_most_one(step):
             metric, direction = np.extremes[0]
             if metric is not Metric.Z or np.side not in ("left", "right"):
-                step = self._extreme(step, metric, direction, self._side_view(step))
+                step = self._extreme(step, metric, direction)
             else:
                 # "the upper left cabinet": of those on the highest level, the leftmost
                 step = self._level(step, base, direction)
@@ -1073,10 +1072,12 @@ class Planner:
         return self.b.add(Op.ARGMAX, step, metric=Metric.FORWARD, k=len(ahead), viewpoint=view)
 
     def _ahead(self, i: int, view: dict[str, list[float]]) -> float:
-        """How far entity ``i`` lies ahead of ``view``'s eye, horizontally (``forward``;
-        the view's direction a unit vector)."""
-        c, eye, to = self.ctx.by_id[i].centroid, view["eye"], view["target"]
-        return (c[0] - eye[0]) * (to[0] - eye[0]) + (c[1] - eye[1]) * (to[1] - eye[1])
+        """How far entity ``i`` lies ahead of ``view``'s eye, horizontally: the query
+        language's ``forward``, as every executor computes it (the view's direction a unit
+        vector)."""
+        e, eye, to = self.ctx.by_id[i], view["eye"], view["target"]
+        return metric_value(PY, "forward", e.centroid, e.bbox_min, e.bbox_max,
+                            ((eye[0], eye[1]), (to[0], to[1])))  # fmt: skip
 
     def _group_side(self, ids: tuple[int, ...], n: int) -> tuple[dict[str, list[float]], float]:
         """Where ``n`` of the entities ``ids`` (more than ``n``) stand apart: a view from
@@ -1103,17 +1104,17 @@ class Planner:
         z = float(self.ctx.centre[2])
         return {"eye": [cx, cy, z], "target": [cx + ax, cy + ay, z]}, cut
 
-    def _extreme(
-        self, step: int, metric: Metric, direction: Op, view: dict[str, list[float]] | None
-    ) -> int:
+    def _extreme(self, step: int, metric: Metric, direction: Op, seen: int | None = None) -> int:
         """The ``k`` of ``step`` with the least (``argmin``) or most ``metric``; ``forward``
-        ("at the back of the room") is seen from ``view`` (:meth:`_side_view`), and
-        without one (the observer in the middle of the candidates) says nothing."""
-        if metric is Metric.FORWARD:
-            if view is None:
-                return step
-            return self.b.add(direction, step, metric=metric, k=self.k, viewpoint=view)
-        return self.b.add(direction, step, metric=metric, k=self.k)
+        ("at the back of the room") is seen from the side view of ``seen`` (``step`` when
+        not given: :meth:`_side_view`), and without one (the observer in the middle of the
+        candidates) says nothing."""
+        if metric is not Metric.FORWARD:
+            return self.b.add(direction, step, metric=metric, k=self.k)
+        view = self._side_view(step if seen is None else seen)
+        if view is None:
+            return step
+        return self.b.add(direction, step, metric=metric, k=self.k, viewpoint=view)
 
     def _level(self, step: int, base: int, direction: Op) -> int:
         """Those of ``step`` on the highest (``argmax``) or lowest level of the phrase's
