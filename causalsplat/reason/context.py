@@ -25,6 +25,9 @@ if TYPE_CHECKING:
 Vec3 = tuple[float, float, float]
 
 
+#: How near a wall (scene units) an entity's footprint must come to stand against it.
+WALL_CONTACT = 0.25
+
 #: The category of an entity nobody named (the build's ``graph.nodes.UNLABELLED``).
 UNLABELLED = "object"
 
@@ -143,6 +146,43 @@ class SceneContext:
         if not math.isfinite(norm) or norm == 0.0:
             return None
         return (x / norm, y / norm)
+
+    def wall_facing(self, entity_id: int) -> tuple[float, float] | None:
+        """The horizontal unit direction away from the walls the entity stands or hangs
+        against, into the room: the front of a mirror, a window or a whiteboard, which no
+        object table annotates (in a corner, between the two walls' normals). ``None``
+        when the entity is structural itself, or no wall it stands alongside comes within
+        :data:`WALL_CONTACT` of its footprint."""
+        e = self.by_id[entity_id]
+        if self.is_structural(e):
+            return None
+        normals: set[tuple[int, float]] = set()
+        for wall in self._walls():
+            sx, sy = (wall.bbox_max[k] - wall.bbox_min[k] for k in (0, 1))
+            thin, along = (0, 1) if sx < sy else (1, 0)
+            lo, hi = wall.bbox_min, wall.bbox_max
+            if not lo[along] <= e.centroid[along] <= hi[along]:
+                continue  # not alongside this wall
+            gap = max(lo[thin] - e.bbox_max[thin], e.bbox_min[thin] - hi[thin], 0.0)
+            side = self.centre[thin] - 0.5 * (lo[thin] + hi[thin])  # into the room
+            if gap <= WALL_CONTACT and side != 0.0:
+                normals.add((thin, math.copysign(1.0, side)))
+        x = math.fsum(sign for axis, sign in normals if axis == 0)
+        y = math.fsum(sign for axis, sign in normals if axis == 1)
+        norm = math.hypot(x, y)
+        return None if norm == 0.0 else (x / norm, y / norm)
+
+    def _walls(self) -> tuple[Entity, ...]:
+        """Structural entities standing upright (taller than their shorter horizontal
+        side): the walls, not the floor or the ceiling."""
+        if "walls" not in self.cache:
+            walls = []
+            for e in self.graph.entities:
+                size = [e.bbox_max[k] - e.bbox_min[k] for k in range(3)]
+                if self.is_structural(e) and size[2] > min(size[0], size[1]):
+                    walls.append(e)
+            self.cache["walls"] = tuple(walls)
+        return self.cache["walls"]  # type: ignore[no-any-return]
 
     def is_structural(self, entity: Entity) -> bool:
         return self.config.is_structural(entity.category)

@@ -930,15 +930,22 @@ class Planner:
         in front of the cabinet's doors, wherever the middle of the room is."""
         if kind not in VIEW:
             return None
-        return self._front_view(self.b.within(anchor))
+        return self._front_view(self.b.within(anchor), walls=True)
 
-    def _front_view(self, ids: tuple[int, ...] | None) -> dict[str, list[float]] | None:
+    def _front_view(
+        self, ids: tuple[int, ...] | None, *, walls: bool = False
+    ) -> dict[str, list[float]] | None:
         """The observer a metre in front of the one entity ``ids``, looking at it, when its
-        front is known; else ``None``."""
-        if not ids or len(ids) != 1 or (facing := self.ctx.facing(ids[0])) is None:
+        front is known (with ``walls``, also when it is against a wall); else ``None``."""
+        if not ids or len(ids) != 1:
+            return None
+        facing, how = self.ctx.facing(ids[0]), "the front of"
+        if facing is None and walls:
+            facing, how = self.ctx.wall_facing(ids[0]), "the room, facing"
+        if facing is None:
             return None
         c = self.ctx.by_id[ids[0]].centroid
-        self.b.note(f"seen from the front of {self.ctx.by_id[ids[0]].category!r}")
+        self.b.note(f"seen from {how} {self.ctx.by_id[ids[0]].category!r}")
         return {"eye": [c[0] + facing[0], c[1] + facing[1], c[2]], "target": list(c)}
 
     def _observer(self) -> list[float] | None:

@@ -913,3 +913,35 @@ def test_not_the_largest_is_every_other_one() -> None:
     assert ask(bins, "the trash can that is not the largest") == (1,)
     assert ask(bins, "the trash can that isn't the biggest one") == (1,)
     assert REASONER.parse("the largest trash can", bins).target.not_extremes == ()  # type: ignore[union-attr]
+
+
+#: A long bathroom (x -2..2, y -4..4) with its walls; a mirror hangs on the east wall near
+#: the south corner with a light on either side of it; a radiator on the north wall has a
+#: bin in front of it and one beside it.
+BATHROOM: list[Box] = [
+    (1, "wall", (2.0, 0.0, 1.2), (0.1, 8.0, 2.4)),
+    (2, "wall", (-2.0, 0.0, 1.2), (0.1, 8.0, 2.4)),
+    (3, "wall", (0.0, 4.0, 1.2), (4.0, 0.1, 2.4)),
+    (4, "wall", (0.0, -4.0, 1.2), (4.0, 0.1, 2.4)),
+    (5, "mirror", (1.9, -3.0, 1.5), (0.05, 0.7, 1.0)),
+    (6, "light", (1.9, -2.4, 1.6), (0.1, 0.1, 0.4)),
+    (7, "light", (1.9, -3.6, 1.6), (0.1, 0.1, 0.4)),
+    (8, "radiator", (-0.6, 3.85, 0.4), (1.2, 0.15, 0.6)),
+    (9, "trash can", (-0.6, 3.3, 0.2), (0.3, 0.3, 0.4)),
+    (10, "trash can", (0.9, 3.8, 0.2), (0.3, 0.3, 0.4)),
+]
+
+
+def test_things_on_a_wall_are_seen_from_the_room() -> None:
+    # A mirror or a radiator has no annotated front; it faces away from its wall. Seen
+    # from the room (looking east at the mirror), left is north: light 6. Before, the
+    # observer stood at the scene centre, looking down the room along the wall, and
+    # neither light was left of the mirror (the closest answered).
+    scene = _scene(BATHROOM)
+    assert scene.wall_facing(5) == (-1.0, 0.0)
+    assert scene.wall_facing(8) == (0.0, -1.0)
+    assert scene.wall_facing(1) is None  # a wall faces nothing
+    assert ask(scene, "the light on the left side of the mirror") == (6,)
+    assert ask(scene, "the light to the right of the mirror") == (7,)
+    # in front of the radiator: between it and the room, not beside it along the wall
+    assert ask(scene, "the trash can in front of the radiator") == (9,)
