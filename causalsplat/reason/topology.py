@@ -823,7 +823,18 @@ class Planner:
             else:
                 why = f"nothing is {_WORDS[kind]} it; read as {_WORDS[relation]!r} instead"
             alternatives.append((relaxed, why))
+        if kind == "supported_by" and not selectors and not self._structural(a[0]):
+            # "the plant on top of the counter", nothing on, above or near the counter:
+            # what stands on furniture is raised off the floor, wherever it is
+            highest = b.add(Op.ARGMAX, step, metric=Metric.Z)
+            alternatives.append((highest, "nothing is on it or near it; took the highest"))
         return b.coalesce(*alternatives, *self._fallback(step, a[0], kind, selectors))
+
+    def _structural(self, anchor: int) -> bool:
+        """Whether the anchor is (or may be) a wall, a floor or a ceiling: unknown members
+        count as structural."""
+        ids = self.b.within(anchor)
+        return ids is None or any(self.ctx.is_structural(self.ctx.by_id[i]) for i in ids)
 
     def _fallback(
         self, step: int, anchor: int, kind: str, selectors: bool

@@ -945,3 +945,19 @@ def test_things_on_a_wall_are_seen_from_the_room() -> None:
     assert ask(scene, "the light to the right of the mirror") == (7,)
     # in front of the radiator: between it and the room, not beside it along the wall
     assert ask(scene, "the trash can in front of the radiator") == (9,)
+
+
+def test_on_furniture_nothing_stands_on_is_the_raised_one() -> None:
+    # Neither plant is on, above or near the counter (the object table misplaces it, or
+    # the plant stands on something unlabelled): what stands on furniture is raised off
+    # the floor, so plant 3, not plant 2 on the floor nearer the counter.
+    boxes: list[Box] = [
+        (1, "counter", (0.0, 0.0, 0.45), (2.0, 0.6, 0.9)),
+        (2, "plant", (3.0, 3.0, 0.3), (0.4, 0.4, 0.6)),
+        (3, "plant", (-4.0, 3.5, 1.2), (0.3, 0.3, 0.5)),
+        (4, "floor", (0.0, 1.0, 0.0), (10.0, 8.0, 0.05)),
+    ]
+    scene = _scene(boxes)
+    assert ask(scene, "the plant sitting on top of the counter") == (3,)
+    # on the floor (structural) stays the closest: not the highest
+    assert ask(scene, "the plant on the floor") == (2,)
