@@ -756,9 +756,10 @@ class Planner:
         measure = Metric.HORIZONTAL_DISTANCE if c.kind in VERTICAL else _FOOTPRINT.get(c.kind)
         if (
             singular and not selectors and c.kind in ("left_of", "right_of")
-            and c.far and not self.b.at_most_one(related)
+            and (c.far or self._same_kind(step, anchor)) and not self.b.at_most_one(related)
         ):  # fmt: skip
-            # "to the far right of the table": of those right of it, the rightmost
+            # "to the far right of the table", "to the right of another chair": of those
+            # right of it (of the others of their kind), the rightmost
             where = self._mean_centroid(self.b.within(anchor))
             eye = self._observer() or list(self.ctx.centre)
             view = self._viewpoint(c.kind) or {"eye": eye, "target": where}
@@ -768,6 +769,11 @@ class Planner:
                 related = self.b.add(op, related, metric=Metric.RIGHTWARD, viewpoint=view)
         ends = (a[0], a[-1]) if c.kind == "between" else None
         return Planned(related, anchor, ends=ends, measure=measure)
+
+    def _same_kind(self, step: int, anchor: int) -> bool:
+        """Whether every category the anchor can hold is one of the candidates'."""
+        mine, theirs = self.b.categories(step), self.b.categories(anchor)
+        return bool(mine) and bool(theirs) and set(theirs) <= set(mine)
 
     def _related(
         self, step: int, kind: str, a: list[int], *, singular: bool, selectors: bool, nth: int = 1

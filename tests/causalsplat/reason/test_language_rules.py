@@ -961,3 +961,19 @@ def test_on_furniture_nothing_stands_on_is_the_raised_one() -> None:
     assert ask(scene, "the plant sitting on top of the counter") == (3,)
     # on the floor (structural) stays the closest: not the highest
     assert ask(scene, "the plant on the floor") == (2,)
+
+
+def test_left_of_another_of_its_kind_is_the_leftmost() -> None:
+    # Three monitors in a row on a desk, seen from the room (south of them, looking
+    # north): each but the rightmost is left of another; the one said is the leftmost,
+    # not the one closest to the others.
+    boxes: list[Box] = [
+        (1, "desk", (0.0, 3.0, 0.4), (3.0, 0.8, 0.8)),
+        (2, "monitor", (-1.0, 3.0, 1.0), (0.5, 0.2, 0.4)),
+        (3, "monitor", (0.0, 3.0, 1.0), (0.5, 0.2, 0.4)),
+        (4, "monitor", (1.0, 3.0, 1.0), (0.5, 0.2, 0.4)),
+        (5, "couch", (0.0, -3.0, 0.4), (2.0, 0.9, 0.8)),
+    ]
+    scene = _scene(boxes)
+    assert ask(scene, "this is a black monitor. it is to the left of another monitor.") == (2,)
+    assert ask(scene, "the monitor to the right of the other monitors") == (4,)
