@@ -157,7 +157,7 @@ class SceneContext:
         if self.is_structural(e):
             return None
         normals: set[tuple[int, float]] = set()
-        for wall in self._walls():
+        for wall in self.walls():
             sx, sy = (wall.bbox_max[k] - wall.bbox_min[k] for k in (0, 1))
             thin, along = (0, 1) if sx < sy else (1, 0)
             lo, hi = wall.bbox_min, wall.bbox_max
@@ -172,7 +172,7 @@ class SceneContext:
         norm = math.hypot(x, y)
         return None if norm == 0.0 else (x / norm, y / norm)
 
-    def _walls(self) -> tuple[Entity, ...]:
+    def walls(self) -> tuple[Entity, ...]:
         """Structural entities standing upright (taller than their shorter horizontal
         side): the walls, not the floor or the ceiling."""
         if "walls" not in self.cache:
@@ -183,6 +183,13 @@ class SceneContext:
                     walls.append(e)
             self.cache["walls"] = tuple(walls)
         return self.cache["walls"]  # type: ignore[no-any-return]
+
+    def wall_gap(self, entity_id: int, wall_id: int) -> float:
+        """The horizontal gap between an entity's footprint and a wall's (0 touching)."""
+        e, w = self.by_id[entity_id], self.by_id[wall_id]
+        gaps = [max(w.bbox_min[k] - e.bbox_max[k], e.bbox_min[k] - w.bbox_max[k], 0.0)
+                for k in (0, 1)]  # fmt: skip
+        return math.hypot(*gaps)
 
     def is_structural(self, entity: Entity) -> bool:
         return self.config.is_structural(entity.category)

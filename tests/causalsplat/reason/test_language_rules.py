@@ -977,3 +977,22 @@ def test_left_of_another_of_its_kind_is_the_leftmost() -> None:
     scene = _scene(boxes)
     assert ask(scene, "this is a black monitor. it is to the left of another monitor.") == (2,)
     assert ask(scene, "the monitor to the right of the other monitors") == (4,)
+
+
+def test_against_the_wall_keeps_those_against_it_for_the_rest_to_choose() -> None:
+    # Three chairs stand against the north wall, one in the middle of the room further
+    # left. "Against the wall" keeps the three (stored relations never relate a chair to
+    # a wall: before, the relation was dropped and the middle one was the leftmost).
+    boxes: list[Box] = [
+        (1, "wall", (0.0, 3.0, 1.2), (6.0, 0.1, 2.4)),
+        (2, "wall", (0.0, -3.0, 1.2), (6.0, 0.1, 2.4)),
+        (3, "wall", (3.0, 0.0, 1.2), (0.1, 6.0, 2.4)),
+        (4, "wall", (-3.0, 0.0, 1.2), (0.1, 6.0, 2.4)),
+        (5, "chair", (-1.0, 2.65, 0.45), (0.5, 0.5, 0.9)),
+        (6, "chair", (0.0, 2.65, 0.45), (0.5, 0.5, 0.9)),
+        (7, "chair", (1.0, 2.65, 0.45), (0.5, 0.5, 0.9)),
+        (8, "chair", (-2.0, 0.5, 0.45), (0.5, 0.5, 0.9)),
+    ]
+    scene = _scene(boxes)
+    assert ask(scene, "the chair against the wall, the one on the left") == (5,)
+    assert ask(scene, "it is the leftmost chair on the wall") == (5,)
