@@ -770,7 +770,8 @@ class Planner:
             view = self._viewpoint(c.kind) or {"eye": eye, "target": where}
             op = Op.ARGMAX if c.kind == "right_of" else Op.ARGMIN
             if where is not None and math.dist(eye[:2], where[:2]) >= MIN_VIEW_DISTANCE:
-                self.b.note(f"far {_WORDS[c.kind]} it: the {c.kind[:-3]}most of them")
+                said = f"far {_WORDS[c.kind]} it" if c.far else f"{_WORDS[c.kind]} another"
+                self.b.note(f"{said}: the {c.kind[:-3]}most of them")
                 related = self.b.add(op, related, metric=Metric.RIGHTWARD, viewpoint=view)
         ends = (a[0], a[-1]) if c.kind == "between" else None
         return Planned(related, anchor, ends=ends, measure=measure)
